@@ -1,0 +1,1 @@
+//! Paired-comparison statistics, significance grouping, scaling, cost-aware equivalence, reports and plots.

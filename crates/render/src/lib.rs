@@ -1,0 +1,1 @@
+//! Pixels from a stimulus: the CPU distribution ray tracer (and later its GPU twin, the post-process filters and the analytic rasterizer).

@@ -1,0 +1,16 @@
+//! blurlab's domain model, shared by the renderer, the experiment runner and the analysis:
+//! stimulus ids and seeds, the scene of a stimulus at any time, manifests of rendered sets,
+//! response logs, and durable file writing. It renders nothing and shows nothing.
+
+pub mod fsio;
+pub mod ids;
+pub mod manifest;
+pub mod response;
+pub mod scene;
+pub mod seed;
+
+pub use ids::{Factor, StimulusId, View};
+pub use seed::Eye;
+
+/// The version of blurlab recorded in every file it writes.
+pub const SOFTWARE_VERSION: &str = env!("CARGO_PKG_VERSION");

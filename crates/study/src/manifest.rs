@@ -1,0 +1,209 @@
+//! Manifests of a rendered stimulus set: one `manifest.json` per sequence folder and an
+//! `index.json` at the set's root. The runner resolves stimuli through them, the analysis
+//! reads render cost from them, and `--resume` trusts a sequence only when its manifest and
+//! every frame hash verify. Format described in docs/formats.md.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::ids::{StimulusId, View};
+
+/// Format tag of a sequence manifest.
+pub const SEQUENCE_FORMAT: &str = "blurlab-sequence/1";
+/// Format tag of a set index.
+pub const INDEX_FORMAT: &str = "blurlab-set/1";
+
+/// One factor level of a sequence, with its label, name and physical value.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LevelInfo {
+    /// Label as in the id, e.g. `T3`.
+    pub label: String,
+    /// Human name from the design file, e.g. `checker` or `50 %`.
+    pub name: String,
+    /// Physical value: material index, degrees per second, shutter fraction, samples per pixel.
+    pub value: f64,
+}
+
+/// The factor levels of a sequence.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Factors {
+    /// Material level.
+    pub material: LevelInfo,
+    /// Speed level (value in degrees of visual angle per second).
+    pub speed: LevelInfo,
+    /// Shutter level (value: fraction of the frame time).
+    pub shutter: LevelInfo,
+    /// Sampling level (value: samples per pixel actually rendered).
+    pub samples: LevelInfo,
+}
+
+/// One rendered frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameRecord {
+    /// Frame index from 0.
+    pub index: u32,
+    /// PNG file (sRGB, 8-bit), relative to the sequence folder.
+    pub png: String,
+    /// SHA-256 of the PNG file.
+    pub png_sha256: String,
+    /// Linear EXR file relative to the sequence folder, when rendered with `--exr`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exr: Option<String>,
+    /// SHA-256 of the EXR file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exr_sha256: Option<String>,
+    /// Wall-clock seconds spent rendering this frame.
+    pub wall_seconds: f64,
+    /// CPU seconds (all threads) spent rendering this frame.
+    pub cpu_seconds: f64,
+    /// Radiance samples that were NaN or infinite and were discarded.
+    pub nonfinite_samples: u64,
+    /// Per-eye sample seeds, left to right.
+    pub seeds: Vec<u64>,
+}
+
+/// The manifest of one sequence folder.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SequenceManifest {
+    /// Always [`SEQUENCE_FORMAT`].
+    pub format: String,
+    /// The stimulus.
+    pub id: StimulusId,
+    /// Mono or stereo (also in the id).
+    pub view: View,
+    /// Factor levels.
+    pub factors: Factors,
+    /// Rendering method (`tracer`, `accum`, `mcguire`, `guertin`, `analytic`).
+    pub method: String,
+    /// Preset name (`full`, `quick`).
+    pub preset: String,
+    /// Composed frame width in pixels (stereo: both eyes).
+    pub width: u32,
+    /// Frame height in pixels.
+    pub height: u32,
+    /// Playback rate.
+    pub fps: f64,
+    /// Samples per pixel rendered.
+    pub samples_per_pixel: u32,
+    /// The design's master seed.
+    pub master_seed: u64,
+    /// Where it was rendered, e.g. `cpu: 2 threads` or a GPU adapter name.
+    pub device: String,
+    /// blurlab version that rendered it.
+    pub software_version: String,
+    /// SHA-256 of the design file.
+    pub design_sha256: String,
+    /// The frames in order.
+    pub frames: Vec<FrameRecord>,
+}
+
+impl SequenceManifest {
+    /// Total wall seconds over all frames: the sequence's measured render cost.
+    pub fn wall_seconds(&self) -> f64 {
+        self.frames.iter().map(|f| f.wall_seconds).sum()
+    }
+
+    /// Total CPU seconds over all frames.
+    pub fn cpu_seconds(&self) -> f64 {
+        self.frames.iter().map(|f| f.cpu_seconds).sum()
+    }
+
+    /// Total discarded non-finite samples.
+    pub fn nonfinite_samples(&self) -> u64 {
+        self.frames.iter().map(|f| f.nonfinite_samples).sum()
+    }
+}
+
+/// An entry of the set index.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct IndexEntry {
+    /// The stimulus.
+    pub id: StimulusId,
+    /// Sequence folder relative to the set root.
+    pub folder: String,
+    /// SHA-256 of the sequence's manifest.json.
+    pub manifest_sha256: String,
+}
+
+/// `index.json` at the root of a rendered set.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SetIndex {
+    /// Always [`INDEX_FORMAT`].
+    pub format: String,
+    /// Design name (e.g. `navarro2011`).
+    pub design: String,
+    /// SHA-256 of the design file.
+    pub design_sha256: String,
+    /// Preset the set was rendered with.
+    pub preset: String,
+    /// The complete sequences, sorted by id.
+    pub sequences: Vec<IndexEntry>,
+}
+
+/// Why a manifest could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum ManifestError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The file is not valid JSON of the expected shape.
+    #[error("{path}: line {line}, column {column}: {message}")]
+    Parse {
+        /// File.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What was wrong.
+        message: String,
+    },
+    /// The format tag is not the one this version reads.
+    #[error("{path}: field `format` is `{found}`, expected `{expected}`")]
+    Format {
+        /// File.
+        path: PathBuf,
+        /// Tag found.
+        found: String,
+        /// Tag expected.
+        expected: &'static str,
+    },
+}
+
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, ManifestError> {
+    let text = std::fs::read_to_string(path).map_err(|source| ManifestError::Io { path: path.to_owned(), source })?;
+    serde_json::from_str(&text).map_err(|e| ManifestError::Parse {
+        path: path.to_owned(),
+        line: e.line(),
+        column: e.column(),
+        message: e.to_string(),
+    })
+}
+
+impl SequenceManifest {
+    /// Reads and checks a sequence manifest.
+    pub fn read(path: &Path) -> Result<Self, ManifestError> {
+        let m: Self = read_json(path)?;
+        if m.format != SEQUENCE_FORMAT {
+            return Err(ManifestError::Format { path: path.to_owned(), found: m.format, expected: SEQUENCE_FORMAT });
+        }
+        Ok(m)
+    }
+}
+
+impl SetIndex {
+    /// Reads and checks a set index.
+    pub fn read(path: &Path) -> Result<Self, ManifestError> {
+        let m: Self = read_json(path)?;
+        if m.format != INDEX_FORMAT {
+            return Err(ManifestError::Format { path: path.to_owned(), found: m.format, expected: INDEX_FORMAT });
+        }
+        Ok(m)
+    }
+}
