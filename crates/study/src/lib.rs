@@ -2,6 +2,8 @@
 //! stimulus ids and seeds, the scene of a stimulus at any time, manifests of rendered sets,
 //! response logs, and durable file writing. It renders nothing and shows nothing.
 
+pub mod design;
+pub mod experiment;
 pub mod fsio;
 pub mod ids;
 pub mod manifest;

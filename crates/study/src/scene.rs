@@ -39,7 +39,14 @@ pub struct Camera {
 
 impl Camera {
     /// A camera at `position` looking at `target` with +y as the up hint.
-    pub fn look_at(position: DVec3, target: DVec3, focal_length: f64, sensor_width: f64, width: u32, height: u32) -> Self {
+    pub fn look_at(
+        position: DVec3,
+        target: DVec3,
+        focal_length: f64,
+        sensor_width: f64,
+        width: u32,
+        height: u32,
+    ) -> Self {
         let forward = (target - position).normalize();
         let right = forward.cross(DVec3::Y).normalize();
         let up = right.cross(forward);
@@ -91,7 +98,13 @@ pub enum StereoConvergence {
 }
 
 /// The cameras of a view: the centre camera alone, or the two eyes of a rig built around it.
-pub fn eye_camera(centre: &Camera, eye: Eye, interocular: f64, focus_distance: f64, convergence: StereoConvergence) -> Camera {
+pub fn eye_camera(
+    centre: &Camera,
+    eye: Eye,
+    interocular: f64,
+    focus_distance: f64,
+    convergence: StereoConvergence,
+) -> Camera {
     let offset = match eye {
         Eye::Centre => return centre.clone(),
         Eye::Left => -0.5 * interocular,

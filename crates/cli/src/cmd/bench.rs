@@ -1,0 +1,31 @@
+//! `blurlab bench ...`: benchmarks that print JSON, one submodule per measured component.
+
+pub mod analysis;
+pub mod playback;
+pub mod tracer;
+
+/// Arguments.
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    which: Which,
+}
+
+#[derive(clap::Subcommand)]
+enum Which {
+    /// Camera samples per second of the CPU tracer (optionally against Mitsuba 3).
+    Tracer(tracer::Args),
+    /// Analysis speed: grouping, bootstrap scaling, W quantiles.
+    Analysis(analysis::Args),
+    /// Runner: sequence decode/upload time, memory, frame pacing.
+    Playback(playback::Args),
+}
+
+/// Runs the chosen benchmark.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.which {
+        Which::Tracer(a) => tracer::run(a),
+        Which::Analysis(a) => analysis::run(a),
+        Which::Playback(a) => playback::run(a),
+    }
+}

@@ -1,0 +1,10 @@
+//! `blurlab demo` (not built yet).
+
+/// Arguments.
+#[derive(clap::Args)]
+pub struct Args {}
+
+/// Runs the subcommand.
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("`demo` is not built yet")
+}

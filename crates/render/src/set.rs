@@ -1,0 +1,1 @@
+//! Rendering whole stimulus sets: sequence folders, manifests, index, resume, progress.

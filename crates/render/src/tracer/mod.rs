@@ -1,0 +1,1 @@
+//! The distribution ray tracer: CPU reference.

@@ -1,0 +1,1 @@
+//! Experiment definitions (experiments/*.toml): task, stimuli, pairing, randomisation, briefing, practice, presentation.
