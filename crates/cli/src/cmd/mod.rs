@@ -12,10 +12,10 @@ pub mod stimuli;
 /// output that could not be written (unwritable folder, full disk).
 pub fn exit_code(error: &anyhow::Error) -> u8 {
     for cause in error.chain() {
-        if let Some(io) = cause.downcast_ref::<std::io::Error>() {
-            if matches!(io.kind(), std::io::ErrorKind::PermissionDenied | std::io::ErrorKind::StorageFull) {
-                return 3;
-            }
+        if let Some(io) = cause.downcast_ref::<std::io::Error>()
+            && matches!(io.kind(), std::io::ErrorKind::PermissionDenied | std::io::ErrorKind::StorageFull)
+        {
+            return 3;
         }
         if cause.downcast_ref::<BadInput>().is_some() {
             return 2;
