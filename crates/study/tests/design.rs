@@ -1,0 +1,276 @@
+//! The shipped design file, its error messages, and the scenes it produces.
+
+use std::path::{Path, PathBuf};
+
+use glam::{DVec2, DVec3};
+use study::design::{Design, DesignError, Views};
+use study::ids::{StimulusId, View};
+use study::scene::Environment;
+use study::seed::Eye;
+
+fn shipped_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml")
+}
+
+fn shipped() -> Design {
+    Design::load(&shipped_path()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn shipped_text() -> String {
+    std::fs::read_to_string(shipped_path()).unwrap()
+}
+
+/// Loads `text` as a design file in a temporary folder; returns the error message.
+fn load_err(text: &str) -> (DesignError, String, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, text).unwrap();
+    let e = Design::load(&path).expect_err("design should not load");
+    let msg = e.to_string();
+    (e, msg, path)
+}
+
+fn line_of(text: &str, needle: &str) -> usize {
+    text.lines().position(|l| l.contains(needle)).unwrap_or_else(|| panic!("{needle} not in text")) + 1
+}
+
+#[test]
+fn shipped_design_has_225_mono_and_225_stereo_ids_that_round_trip() {
+    let d = shipped();
+    let mono = d.ids(Views::Mono);
+    let stereo = d.ids(Views::Stereo);
+    assert_eq!(mono.len(), 225);
+    assert_eq!(stereo.len(), 225);
+    assert!(mono.iter().all(|i| i.view == View::Mono) && stereo.iter().all(|i| i.view == View::Stereo));
+    let both = d.ids(Views::Both);
+    assert_eq!(both.len(), 450);
+    let unique: std::collections::BTreeSet<_> = both.iter().collect();
+    assert_eq!(unique.len(), 450);
+    for id in &both {
+        assert_eq!(&id.to_string().parse::<StimulusId>().unwrap(), id);
+        d.check_id(id).unwrap();
+    }
+    assert!(d.check_id(&"M4-S1-T1-A1".parse().unwrap()).unwrap_err().to_string().contains("M4"));
+    assert_eq!(d.name(), "navarro2011");
+    let quick = d.preset("quick").unwrap();
+    assert_eq!((quick.width, quick.height, quick.frames), (160, 90, 8));
+    let full = d.preset("full").unwrap();
+    assert_eq!((full.width, full.height, full.frames), (640, 360, 120));
+    assert_eq!(full.samples_per_pixel, vec![4, 128, 256, 384, 512]);
+    assert!(d.preset("huge").unwrap_err().to_string().contains("no preset `huge`"));
+}
+
+#[test]
+fn unknown_key_names_file_line_and_key() {
+    let text = shipped_text().replace("frames = 120\n", "frames = 120\nframerate = 30\n");
+    let (_, msg, path) = load_err(&text);
+    let line = line_of(&text, "framerate");
+    assert!(msg.contains(&path.display().to_string()), "{msg}");
+    assert!(msg.contains(&format!(":{line}:")), "{msg}");
+    assert!(msg.contains("framerate"), "{msg}");
+    assert!(msg.contains("sequence"), "{msg}");
+}
+
+#[test]
+fn wrong_type_names_file_line_and_key() {
+    let text = shipped_text().replace("fps = 30.0", "fps = \"thirty\"");
+    let (e, msg, path) = load_err(&text);
+    assert!(matches!(e, DesignError::Parse { .. }));
+    assert!(msg.contains(&path.display().to_string()), "{msg}");
+    assert!(msg.contains(&format!(":{}:", line_of(&text, "thirty"))), "{msg}");
+    assert!(msg.contains("sequence.fps"), "{msg}");
+
+    let text = shipped_text().replace("degrees_per_second = 10.0", "degrees_per_second = [10]");
+    let (_, msg, _) = load_err(&text);
+    assert!(msg.contains(&format!(":{}:", line_of(&text, "= [10]"))), "{msg}");
+    assert!(msg.contains("degrees_per_second"), "{msg}");
+}
+
+#[test]
+fn missing_key_and_bad_values_name_the_key() {
+    let text = shipped_text().replace("sensor_width = 0.036\n", "");
+    let (_, msg, _) = load_err(&text);
+    assert!(msg.contains("sensor_width"), "{msg}");
+
+    let text = shipped_text().replace("fraction = 0.75", "fraction = 1.75");
+    let (_, msg, _) = load_err(&text);
+    assert!(msg.contains(&format!(":{}:", line_of(&text, "1.75"))), "{msg}");
+    assert!(msg.contains("factors.shutter[4].fraction"), "{msg}");
+
+    let text = shipped_text().replace("squares_pole_to_pole = 8\n", "");
+    let (_, msg, _) = load_err(&text);
+    assert!(msg.contains("factors.material[2].squares_pole_to_pole") && msg.contains("needs"), "{msg}");
+}
+
+#[test]
+fn missing_environment_map_names_file_line_key_and_map() {
+    let text = shipped_text().replace(
+        "environment = { kind = \"default\", width = 1024 }",
+        "environment = { kind = \"file\", path = \"env/none.exr\" }",
+    );
+    let (_, msg, path) = load_err(&text);
+    assert!(msg.contains(&path.display().to_string()), "{msg}");
+    assert!(msg.contains(&format!(":{}:", line_of(&text, "none.exr"))), "{msg}");
+    assert!(msg.contains("lighting.environment.path"), "{msg}");
+    assert!(msg.contains("env/none.exr") && msg.contains("does not exist"), "{msg}");
+}
+
+#[test]
+fn environment_file_resolves_against_the_design_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("env")).unwrap();
+    std::fs::write(dir.path().join("env/map.exr"), b"not checked here").unwrap();
+    let text = shipped_text().replace(
+        "environment = { kind = \"default\", width = 1024 }",
+        "environment = { kind = \"file\", path = \"env/map.exr\" }",
+    );
+    let path = dir.path().join("d.toml");
+    std::fs::write(&path, text).unwrap();
+    let d = Design::load(&path).unwrap();
+    assert_eq!(d.lighting.environment, Environment::File { path: dir.path().join("env/map.exr") });
+}
+
+#[test]
+fn camera_is_3_m_from_the_sphere_50_cm_up_with_a_50_mm_lens() {
+    let d = shipped();
+    let s = d.frame_scene(&"M2-S2-T3-A5".parse().unwrap(), 60).unwrap();
+    let cam = &s.views[0].camera;
+    let focus = d.focus_point();
+    assert!(((cam.position - focus).length() - 3.0).abs() < 1e-12);
+    assert!((cam.position.y - s.floor.height - 0.5).abs() < 1e-12);
+    assert_eq!(cam.focal_length, 0.05);
+    assert_eq!((cam.width, cam.height), (640, 360));
+    assert_eq!(s.sphere.radius, 0.1);
+    assert!((focus.y - s.floor.height - 0.1).abs() < 1e-12);
+    // The path is parallel to the image plane, on the floor.
+    assert!(s.sphere.velocity.dot(cam.forward).abs() < 1e-12 && s.sphere.velocity.y == 0.0);
+    // The path passes through the focus point, which projects to the image centre.
+    let t_cross = (focus - s.sphere.start).length() / s.sphere.speed();
+    assert!((s.sphere.centre_at(t_cross) - focus).length() < 1e-9);
+    assert!((cam.project(focus).unwrap() - DVec2::new(320.0, 180.0)).length() < 1e-6);
+    assert_eq!(s.samples_per_pixel, 512);
+}
+
+#[test]
+fn projected_speed_matches_degrees_per_second_times_pixels_per_degree() {
+    let d = shipped();
+    for preset in ["full", "quick"] {
+        let p = d.preset(preset).unwrap();
+        for (speed, deg) in [(1, 5.0), (2, 10.0), (3, 15.0)] {
+            let id = StimulusId { material: 1, speed, shutter: 1, samples: 1, view: View::Mono };
+            let s = d.frame_scene_with(&p, &id, 0).unwrap();
+            let cam = &s.views[0].camera;
+            let dt = 1e-4;
+            let t_cross = (d.focus_point() - s.sphere.start).length() / s.sphere.speed();
+            let a = cam.project(s.sphere.centre_at(t_cross - dt)).unwrap();
+            let b = cam.project(s.sphere.centre_at(t_cross + dt)).unwrap();
+            let px_per_s = (b - a).length() / (2.0 * dt);
+            let ppd = d.pixels_per_degree(p.width);
+            assert!((px_per_s - deg * ppd).abs() < 1e-3 * deg * ppd, "{preset} S{speed}: {px_per_s} vs {}", deg * ppd);
+            // Left to right in the image.
+            assert!(b.x > a.x);
+        }
+    }
+    // 14.4 degrees at 60 cm: 640 px / (2 tan 7.2 deg) * pi/180 = 44.21 px/deg at the centre.
+    assert!((d.pixels_per_degree(640) - 44.21).abs() < 0.01);
+    assert!((d.metres_per_second(10.0) - 1.492).abs() < 1e-3);
+}
+
+#[test]
+fn the_sphere_is_in_view_most_of_the_sequence_and_wraps_out_of_view() {
+    let d = shipped();
+    for speed in 1..=3u8 {
+        let id = StimulusId { material: 1, speed, shutter: 1, samples: 1, view: View::Mono };
+        let s = d.frame_scene(&id, 0).unwrap();
+        let cam = &s.views[0].camera;
+        let frames = 120;
+        let mut visible = 0;
+        for f in 0..frames {
+            let t = d.frame_time(&d.preset("full").unwrap(), f);
+            let c = cam.project(s.sphere.centre_at(t)).unwrap();
+            if (0.0..640.0).contains(&c.x) {
+                visible += 1;
+            }
+        }
+        // Centre in the image for most of the sequence at every speed.
+        assert!(visible >= 85, "S{speed}: centre in view in {visible} of 120 frames");
+        // In the quick preset's frames the sphere is entirely in view.
+        let quick = d.preset("quick").unwrap();
+        let r_px = 0.1 * 0.05 / 3.0 / 0.036 * 640.0;
+        for f in 0..quick.frames {
+            let c = cam.project(s.sphere.centre_at(d.frame_time(&quick, f))).unwrap();
+            assert!(c.x > r_px && c.x < 640.0 - r_px, "S{speed} quick frame {f}: {c}");
+        }
+        // Wrapping happens out of view: just before and after a wrap the sphere is fully off-screen.
+        if let Some(l) = s.sphere.wrap_length {
+            let period = l / s.sphere.speed();
+            let start_px = cam.project(s.sphere.start).unwrap();
+            let end_px = cam.project(s.sphere.centre_at(period - 1e-9)).unwrap();
+            let r_px = 0.1 * 0.05 / 3.0 / 0.036 * 640.0;
+            assert!(start_px.x < -r_px && end_px.x > 640.0 + r_px, "S{speed}: {start_px} {end_px}");
+        }
+    }
+}
+
+#[test]
+fn shutter_is_centred_on_the_frame_time_bounded_by_the_frame_and_t1_is_instantaneous() {
+    let d = shipped();
+    let fps = 30.0;
+    for shutter in 1..=5u8 {
+        let id = StimulusId { material: 2, speed: 3, shutter, samples: 1, view: View::Mono };
+        for frame in [0, 57, 119] {
+            let s = d.frame_scene(&id, frame).unwrap();
+            assert!((s.frame_time - (f64::from(frame) + 0.5) / fps).abs() < 1e-12);
+            let mid = 0.5 * (s.shutter.open + s.shutter.close);
+            assert!((mid - s.frame_time).abs() < 1e-12);
+            let fraction = [0.0, 0.25, 0.5, 0.75, 1.0][usize::from(shutter - 1)];
+            assert!(((s.shutter.close - s.shutter.open) - fraction / fps).abs() < 1e-12);
+            assert!(s.shutter.open >= f64::from(frame) / fps - 1e-12);
+            assert!(s.shutter.close <= f64::from(frame + 1) / fps + 1e-12);
+            assert_eq!(s.needs_time_sampling(), shutter > 1);
+            if shutter == 1 {
+                assert_eq!(s.shutter.open, s.shutter.close);
+            }
+        }
+    }
+}
+
+#[test]
+fn stereo_rig_has_zero_disparity_at_focus_and_geometric_disparity_elsewhere() {
+    let d = shipped();
+    let s = d.frame_scene(&"M2-S2-T3-A5-stereo".parse().unwrap(), 10).unwrap();
+    assert_eq!(s.views.len(), 2);
+    assert_eq!((s.views[0].eye, s.views[1].eye), (Eye::Left, Eye::Right));
+    assert_eq!(s.composed_width(), 1280);
+    assert_ne!(s.views[0].seed, s.views[1].seed);
+    let (l, r) = (&s.views[0].camera, &s.views[1].camera);
+    assert!(((r.position - l.position).length() - 0.065).abs() < 1e-12);
+    let centre = d.centre_camera(640, 360);
+    let focus = d.focus_point();
+    let disparity = |p: DVec3| l.project(p).unwrap().x - r.project(p).unwrap().x;
+    assert!(disparity(focus).abs() < 1e-9);
+    assert!((l.project(focus).unwrap() - DVec2::new(320.0, 180.0)).length() < 1e-9);
+    // Parallel off-axis rig: disparity in pixels = f * I * (1/Z - 1/Z_focus) * W / sensor width,
+    // positive (crossed: left image point right of the right one) in front of the focus point.
+    let px_per_m = 640.0 / 0.036;
+    for z in [2.0, 2.5, 4.0, 6.0] {
+        let p = centre.position + centre.forward * z;
+        let expected = 0.05 * 0.065 * (1.0 / z - 1.0 / 3.0) * px_per_m;
+        assert!((disparity(p) - expected).abs() < 1e-9, "z {z}: {} vs {expected}", disparity(p));
+        assert_eq!(disparity(p) > 0.0, z < 3.0);
+    }
+    // 1 m in front of the focus point: about 9.6 px crossed.
+    assert!((disparity(centre.position + centre.forward * 2.0) - 9.630).abs() < 1e-3);
+}
+
+#[test]
+fn seeds_follow_the_master_seed_and_differ_per_eye_and_frame() {
+    let d = shipped();
+    let id: StimulusId = "M3-S1-T5-A2-stereo".parse().unwrap();
+    let a = d.frame_scene(&id, 3).unwrap();
+    let b = d.frame_scene(&id, 4).unwrap();
+    assert_eq!(a.views[0].seed, study::seed::frame_seed(2011, &id, Eye::Left, 3));
+    assert_ne!(a.views[0].seed, b.views[0].seed);
+    assert_eq!(a, d.frame_scene(&id, 3).unwrap());
+    assert!(d.frame_scene(&id, 120).unwrap_err().to_string().contains("frame 120"));
+}
