@@ -10,6 +10,7 @@ pub mod manifest;
 pub mod response;
 pub mod scene;
 pub mod seed;
+pub mod select;
 
 pub use ids::{Factor, StimulusId, View};
 pub use seed::Eye;
