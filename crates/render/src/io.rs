@@ -1,1 +1,228 @@
-//! Image output: linear radiance buffers, tone mapping, sRGB PNG and linear EXR files.
+//! Image output: linear radiance buffers, tone mapping, sRGB PNG and linear EXR encoding,
+//! and decoding of linear EXR / Radiance HDR files (used for environment maps).
+//!
+//! Encoding is deterministic: the same image gives the same bytes, so manifests can hash
+//! frames.
+
+use std::io::Cursor;
+
+use study::scene::{Exposure, ToneMap};
+
+/// Errors of encoding or decoding images.
+#[derive(Debug, thiserror::Error)]
+pub enum IoError {
+    /// The EXR encoder or decoder failed.
+    #[error("EXR: {0}")]
+    Exr(String),
+    /// The PNG encoder or the HDR decoder failed.
+    #[error("image: {0}")]
+    Image(String),
+    /// Pixel buffer and dimensions disagree.
+    #[error("image is {width}x{height} but holds {len} pixels")]
+    Dimensions {
+        /// Declared width.
+        width: u32,
+        /// Declared height.
+        height: u32,
+        /// Number of pixels held.
+        len: usize,
+    },
+}
+
+/// A linear-radiance RGB image, row-major from the top-left pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width * height` pixels, row by row from the top.
+    pub pixels: Vec<[f32; 3]>,
+}
+
+impl LinearImage {
+    /// A black image.
+    pub fn new(width: u32, height: u32) -> Self {
+        LinearImage { width, height, pixels: vec![[0.0; 3]; width as usize * height as usize] }
+    }
+
+    /// The pixel at column `x`, row `y`.
+    pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
+        self.pixels[y as usize * self.width as usize + x as usize]
+    }
+
+    /// Sets the pixel at column `x`, row `y`.
+    pub fn set(&mut self, x: u32, y: u32, value: [f32; 3]) {
+        let w = self.width as usize;
+        self.pixels[y as usize * w + x as usize] = value;
+    }
+
+    fn check(&self) -> Result<(), IoError> {
+        if self.pixels.len() == self.width as usize * self.height as usize {
+            Ok(())
+        } else {
+            Err(IoError::Dimensions { width: self.width, height: self.height, len: self.pixels.len() })
+        }
+    }
+}
+
+/// Composes images left to right (the eyes of a stereo pair) into one image whose height
+/// is the tallest input's; shorter inputs are padded with black at the bottom.
+pub fn compose_side_by_side(images: &[LinearImage]) -> LinearImage {
+    let width: u32 = images.iter().map(|i| i.width).sum();
+    let height = images.iter().map(|i| i.height).max().unwrap_or(0);
+    let mut out = LinearImage::new(width, height);
+    let mut x0 = 0;
+    for img in images {
+        for y in 0..img.height {
+            let src = &img.pixels[(y * img.width) as usize..((y + 1) * img.width) as usize];
+            let start = (y * width + x0) as usize;
+            out.pixels[start..start + img.width as usize].copy_from_slice(src);
+        }
+        x0 += img.width;
+    }
+    out
+}
+
+/// The sRGB transfer function (linear [0, 1] to encoded [0, 1]).
+pub fn srgb_encode(linear: f64) -> f64 {
+    if linear <= 0.003_130_8 { 12.92 * linear } else { 1.055 * linear.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// Maps one linear radiance value to a display value in [0, 1]: exposure, tone curve,
+/// sRGB transfer. Non-finite or negative radiance maps to black.
+pub fn display_value(radiance: f32, exposure: &Exposure) -> f64 {
+    let v = f64::from(radiance);
+    if !v.is_finite() || v <= 0.0 {
+        // +Inf is the only non-finite value with an obvious display value.
+        return if v == f64::INFINITY { 1.0 } else { 0.0 };
+    }
+    let exposed = v * exposure.stops.exp2();
+    let mapped = match exposure.tone_map {
+        ToneMap::Clamp => exposed.min(1.0),
+        ToneMap::Reinhard => exposed / (1.0 + exposed),
+    };
+    srgb_encode(mapped.clamp(0.0, 1.0))
+}
+
+/// 8-bit sRGB bytes (RGB, row-major) of the display image.
+pub fn to_srgb8(image: &LinearImage, exposure: &Exposure) -> Vec<u8> {
+    image
+        .pixels
+        .iter()
+        .flat_map(|p| p.map(|c| (display_value(c, exposure) * 255.0).round().clamp(0.0, 255.0) as u8))
+        .collect()
+}
+
+/// Encodes the display image as an 8-bit sRGB PNG (exposure in stops, tone map, sRGB).
+///
+/// # Panics
+/// Only if the image's pixel count disagrees with its dimensions (a programming error).
+pub fn encode_png_srgb(image: &LinearImage, exposure: &Exposure) -> Vec<u8> {
+    use image::ImageEncoder;
+    image.check().expect("LinearImage dimensions");
+    let bytes = to_srgb8(image, exposure);
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(&bytes, image.width, image.height, image::ExtendedColorType::Rgb8)
+        .expect("PNG encoding into memory cannot fail for a consistent image");
+    out
+}
+
+/// Encodes linear radiance as a 32-bit float RGB EXR file.
+pub fn encode_exr(image: &LinearImage) -> Result<Vec<u8>, IoError> {
+    use exr::prelude::*;
+    image.check()?;
+    let w = image.width as usize;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p = image.pixels[y * w + x];
+        (p[0], p[1], p[2])
+    });
+    let exr_image = Image::from_channels((w, image.height as usize), channels);
+    let mut cursor = Cursor::new(Vec::new());
+    exr_image.write().non_parallel().to_buffered(&mut cursor).map_err(|e| IoError::Exr(e.to_string()))?;
+    Ok(cursor.into_inner())
+}
+
+/// Decodes the first RGB(A) layer of an EXR file into linear radiance (alpha ignored).
+pub fn decode_exr(bytes: &[u8]) -> Result<LinearImage, IoError> {
+    use exr::prelude::*;
+    let img = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |res: Vec2<usize>, _: &RgbaChannels| LinearImage::new(res.width() as u32, res.height() as u32),
+            |img: &mut LinearImage, pos: Vec2<usize>, (r, g, b, _a): (f32, f32, f32, f32)| {
+                img.set(pos.x() as u32, pos.y() as u32, [r, g, b]);
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .non_parallel()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(|e| IoError::Exr(e.to_string()))?;
+    Ok(img.layer_data.channel_data.pixels)
+}
+
+/// Decodes a Radiance HDR (RGBE) file into linear radiance.
+pub fn decode_hdr(bytes: &[u8]) -> Result<LinearImage, IoError> {
+    let reader = image::ImageReader::with_format(Cursor::new(bytes), image::ImageFormat::Hdr);
+    let img = reader.decode().map_err(|e| IoError::Image(e.to_string()))?.into_rgb32f();
+    let (width, height) = img.dimensions();
+    let pixels = img.pixels().map(|p| p.0).collect();
+    Ok(LinearImage { width, height, pixels })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gradient(w: u32, h: u32) -> LinearImage {
+        let mut img = LinearImage::new(w, h);
+        for y in 0..h {
+            for x in 0..w {
+                img.set(x, y, [x as f32 * 0.1, y as f32 * 0.25, 1000.0]);
+            }
+        }
+        img
+    }
+
+    #[test]
+    fn exr_round_trips_exactly() {
+        let img = gradient(7, 5);
+        let bytes = encode_exr(&img).unwrap();
+        assert_eq!(decode_exr(&bytes).unwrap(), img);
+        assert_eq!(bytes, encode_exr(&img).unwrap(), "deterministic bytes");
+    }
+
+    #[test]
+    fn png_is_srgb_with_exposure_and_tone_map() {
+        let mut img = LinearImage::new(3, 1);
+        img.pixels = vec![[0.0; 3], [0.5, 0.5, 0.5], [f32::NAN, 4.0, -1.0]];
+        let clamp = Exposure { stops: 0.0, tone_map: ToneMap::Clamp };
+        let bytes = to_srgb8(&img, &clamp);
+        assert_eq!(&bytes[0..3], &[0, 0, 0]);
+        // sRGB(0.5) = 0.7354 -> 188.
+        assert_eq!(&bytes[3..6], &[188, 188, 188]);
+        assert_eq!(&bytes[6..9], &[0, 255, 0]);
+        let plus_one = Exposure { stops: 1.0, tone_map: ToneMap::Reinhard };
+        // 0.5 * 2 = 1 -> Reinhard 0.5 -> 188.
+        assert_eq!(to_srgb8(&img, &plus_one)[3], 188);
+        let png = encode_png_srgb(&img, &clamp);
+        let decoded = image::load_from_memory(&png).unwrap().into_rgb8();
+        assert_eq!(decoded.into_raw(), bytes);
+    }
+
+    #[test]
+    fn side_by_side_puts_left_eye_first() {
+        let mut a = LinearImage::new(2, 2);
+        a.pixels.fill([1.0, 0.0, 0.0]);
+        let mut b = LinearImage::new(3, 2);
+        b.pixels.fill([0.0, 1.0, 0.0]);
+        let c = compose_side_by_side(&[a, b]);
+        assert_eq!((c.width, c.height), (5, 2));
+        assert_eq!(c.get(1, 1), [1.0, 0.0, 0.0]);
+        assert_eq!(c.get(2, 0), [0.0, 1.0, 0.0]);
+        assert_eq!(c.get(4, 1), [0.0, 1.0, 0.0]);
+    }
+}

@@ -1,0 +1,164 @@
+//! The path-tracing integrator: Lambertian surfaces under an environment map.
+//!
+//! At every surface vertex the environment is sampled twice: by importance sampling the
+//! map (a shadow ray) and by the cosine-weighted BSDF direction that also continues the
+//! path; the two are combined by the power heuristic. Bounce `k` is the `k`-th
+//! scattering at a surface: with `max_bounces = B` a path scatters at most B times, so
+//! its longest chain has B + 1 segments (Mitsuba's `max_depth = B + 1`). Russian
+//! roulette may stop a path before it scatters for the `russian_roulette_from`-th time,
+//! with survival probability equal to the largest channel of the throughput (at most 1,
+//! at least 5 %).
+
+use std::f64::consts::{FRAC_1_PI, PI};
+
+use glam::{DQuat, DVec3};
+
+use super::intersect::{Geometry, Hit, Ray, Surface, spawn_ray};
+use super::material::Shader;
+use super::sampler::{PixelSampler, dim};
+use crate::env::EnvironmentMap;
+
+/// Spread (radians) of the cone a sample stands for after a diffuse bounce, for texture
+/// filtering of indirect hits: diffuse light averages over a wide area.
+const DIFFUSE_SPREAD: f64 = 0.25;
+
+/// The sphere at the instant of one camera sample.
+#[derive(Clone, Copy, Debug)]
+pub struct SphereState {
+    /// Intersectable geometry.
+    pub geometry: Geometry,
+    /// World-to-object rotation (inverse of the orientation), used only by textures.
+    pub world_to_object: DQuat,
+}
+
+/// Everything the integrator needs that does not change within a frame.
+pub struct PathTracer<'a> {
+    /// Environment.
+    pub env: &'a EnvironmentMap,
+    /// Sphere material.
+    pub shader: Shader,
+    /// Floor albedo.
+    pub floor_albedo: DVec3,
+    /// Maximum scattering events.
+    pub max_bounces: u32,
+    /// Scattering event from which Russian roulette applies.
+    pub russian_roulette_from: u32,
+}
+
+/// Orthonormal basis around a unit normal (Duff et al. 2017, branchless).
+#[inline]
+fn basis(n: DVec3) -> (DVec3, DVec3) {
+    let sign = 1.0f64.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
+}
+
+/// Cosine-weighted direction about `n` and its density `cos / pi`.
+#[inline]
+pub fn cosine_sample(n: DVec3, u: [f64; 2]) -> (DVec3, f64) {
+    let r = u[0].sqrt();
+    let phi = 2.0 * PI * u[1];
+    let (s, c) = phi.sin_cos();
+    let z = (1.0 - u[0]).max(0.0).sqrt();
+    let (t, b) = basis(n);
+    let d = (t * (r * c) + b * (r * s) + n * z).normalize();
+    (d, z * FRAC_1_PI)
+}
+
+#[inline]
+fn power_heuristic(a: f64, b: f64) -> f64 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+impl PathTracer<'_> {
+    fn albedo(&self, hit: &Hit, sphere: &SphereState, footprint: f64, ray: &Ray) -> DVec3 {
+        match hit.surface {
+            Surface::Floor => self.floor_albedo,
+            Surface::Sphere => match &self.shader {
+                Shader::Flat(c) => *c,
+                shader => {
+                    let g = &sphere.geometry;
+                    let local = sphere.world_to_object * ((hit.point - g.centre) / g.radius);
+                    // The footprint stretches by 1/cos towards the silhouette; the
+                    // geometric mean of the two axes keeps the filter isotropic.
+                    let cos = hit.normal.dot(ray.dir).abs().max(0.05);
+                    shader.albedo(local, footprint / (g.radius * cos.sqrt()))
+                }
+            },
+        }
+    }
+
+    /// Radiance along a camera ray; `pixel_angle` is the angle a pixel subtends.
+    pub fn radiance(&self, camera_ray: Ray, sphere: &SphereState, sampler: &PixelSampler, pixel_angle: f64) -> DVec3 {
+        let geom = &sphere.geometry;
+        let mut ray = camera_ray;
+        let mut l = DVec3::ZERO;
+        let mut beta = DVec3::ONE;
+        let mut skip: Option<Surface> = None;
+        let mut prev_bsdf_pdf = 0.0;
+        let mut cone_width = 0.0;
+        let mut spread = pixel_angle;
+        let mut bounce = 0u32;
+        loop {
+            let Some(mut hit) = geom.intersect(&ray, skip) else {
+                let (le, env_pdf) = self.env.radiance_and_pdf(ray.dir);
+                let w = if bounce == 0 { 1.0 } else { power_heuristic(prev_bsdf_pdf, env_pdf) };
+                l += beta * le * w;
+                break;
+            };
+            if bounce == self.max_bounces {
+                break;
+            }
+            // Shade the side the ray arrives on. Leaving a plane, or a sphere on its
+            // outside, never meets that surface again; leaving the inside of a sphere can.
+            let mut leave_skip = Some(hit.surface);
+            if hit.normal.dot(ray.dir) > 0.0 {
+                hit.normal = -hit.normal;
+                if hit.surface == Surface::Sphere {
+                    leave_skip = None;
+                }
+            }
+            let footprint = cone_width + hit.t * spread;
+            let albedo = self.albedo(&hit, sphere, footprint, &ray);
+            let base = dim::BOUNCE_BASE + bounce * dim::PER_BOUNCE;
+            // Light sampling: one direction from the map, with a shadow ray.
+            if let Some(s) = self.env.sample(sampler.get_2d(base + dim::LIGHT)) {
+                let cos = hit.normal.dot(s.direction);
+                if cos > 0.0 {
+                    let shadow = spawn_ray(&hit, s.direction);
+                    if !geom.occluded(&shadow, leave_skip) {
+                        let w = power_heuristic(s.pdf, cos * FRAC_1_PI);
+                        l += beta * albedo * s.radiance * (cos * FRAC_1_PI * w / s.pdf);
+                    }
+                }
+            }
+            // BSDF sampling: continues the path; f cos / pdf = albedo.
+            let (wi, pdf) = cosine_sample(hit.normal, sampler.get_2d(base + dim::BSDF));
+            if pdf <= 0.0 {
+                break;
+            }
+            beta *= albedo;
+            bounce += 1;
+            if bounce >= self.russian_roulette_from {
+                let survive = beta.max_element().clamp(0.05, 1.0);
+                if survive < 1.0 {
+                    if sampler.get_1d(base + dim::ROULETTE) >= survive {
+                        break;
+                    }
+                    beta /= survive;
+                }
+            }
+            if beta == DVec3::ZERO {
+                break;
+            }
+            ray = spawn_ray(&hit, wi);
+            skip = leave_skip;
+            prev_bsdf_pdf = pdf;
+            cone_width = footprint;
+            spread = spread.max(DIFFUSE_SPREAD);
+        }
+        l
+    }
+}
