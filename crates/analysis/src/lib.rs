@@ -1,10 +1,21 @@
 //! Paired-comparison statistics, significance grouping, scaling, cost-aware equivalence,
 //! reports and plots.
 //!
-//! Each statistic is a public function over plain counts ([`paired`], [`grouping`],
-//! [`srange`], [`scaling`]); [`votes`] reads published vote totals.
+//! Each statistic is a public function over plain counts: [`paired`] (preference matrix,
+//! circular triads, consistency zeta, agreement u), [`grouping`] (David's method),
+//! [`srange`] (the quantile W of the range of normals), [`factors`] (per-factor preference),
+//! [`scaling`] (Thurstone Case V with bootstrap intervals). [`logs`] reads and checks the
+//! runner's response logs, [`experiment`] analyses one experiment (matching accuracy and
+//! cost-aware equivalence included), [`report`] and [`plots`] write the report folder, and
+//! [`votes`] reads published vote totals.
 
+pub mod experiment;
+pub mod factors;
 pub mod grouping;
+pub mod logs;
 pub mod paired;
+pub mod plots;
+pub mod report;
+pub mod scaling;
 pub mod srange;
 pub mod votes;

@@ -1,0 +1,498 @@
+//! The report's figures, drawn with plotters into PNG and SVG: votes per stimulus with the
+//! significance groups marked, the shutter x sampling grid coloured by group (thesis
+//! figures 5.6 and 6.8), the matching accuracy heat map (figure 5.5), preference bars with
+//! standard-error bars per factor and segment (figures 5.4 and 6.5), and the Thurstone scale
+//! with confidence intervals. Text uses the Ubuntu Light font bundled by the
+//! `epaint_default_fonts` crate (no system fonts). Files are written atomically.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use crate::factors::LevelPreference;
+
+/// Why a figure could not be drawn or written.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// Drawing failed.
+    #[error("drawing {name}: {message}")]
+    Draw {
+        /// Figure name.
+        name: String,
+        /// Cause.
+        message: String,
+    },
+    /// Writing failed.
+    #[error("{path}: cannot write: {source}")]
+    Io {
+        /// File.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+}
+
+const FONT: &str = "sans-serif";
+
+fn register_font() {
+    static DONE: OnceLock<()> = OnceLock::new();
+    DONE.get_or_init(|| {
+        // The bytes are a valid TrueType font shipped with egui; failure would be a packaging bug.
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, epaint_default_fonts::UBUNTU_LIGHT);
+    });
+}
+
+fn err<E: std::fmt::Debug>(e: E) -> String {
+    format!("{e:?}")
+}
+
+/// Colours of groups 1, 2, 3, ... (blue, red, green, grey as in the thesis, then more).
+pub fn group_colour(g: usize) -> RGBColor {
+    const COLOURS: [RGBColor; 8] = [
+        RGBColor(52, 101, 164),
+        RGBColor(204, 0, 0),
+        RGBColor(78, 154, 6),
+        RGBColor(136, 138, 133),
+        RGBColor(245, 121, 0),
+        RGBColor(117, 80, 123),
+        RGBColor(193, 125, 17),
+        RGBColor(6, 152, 154),
+    ];
+    COLOURS[g % COLOURS.len()]
+}
+
+/// A figure that can draw itself on any plotters backend.
+pub trait Figure {
+    /// Pixel size.
+    fn size(&self) -> (u32, u32);
+    /// Draws on `root`.
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String>;
+}
+
+/// Writes `DIR/STEM.png` and `DIR/STEM.svg`; returns their paths.
+pub fn save_figure<F: Figure>(figure: &F, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, PlotError> {
+    register_font();
+    let (w, h) = figure.size();
+    let draw_err = |message: String| PlotError::Draw { name: stem.to_owned(), message };
+    let mut pixels = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| draw_err(err(e)))?;
+        figure.draw(&root).map_err(draw_err)?;
+        root.present().map_err(|e| draw_err(err(e)))?;
+    }
+    let mut png = Vec::new();
+    {
+        use image::ImageEncoder;
+        image::codecs::png::PngEncoder::new(&mut png)
+            .write_image(&pixels, w, h, image::ExtendedColorType::Rgb8)
+            .map_err(|e| draw_err(e.to_string()))?;
+    }
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| draw_err(err(e)))?;
+        figure.draw(&root).map_err(draw_err)?;
+        root.present().map_err(|e| draw_err(err(e)))?;
+    }
+    let mut out = Vec::new();
+    for (ext, bytes) in [("png", png.as_slice()), ("svg", svg.as_bytes())] {
+        let path = dir.join(format!("{stem}.{ext}"));
+        study::fsio::write_atomic(&path, bytes).map_err(|source| PlotError::Io { path: path.clone(), source })?;
+        out.push(path);
+    }
+    Ok(out)
+}
+
+fn text_style(size: f64) -> TextStyle<'static> {
+    (FONT, size).into_font().color(&BLACK)
+}
+
+fn centred(size: f64) -> TextStyle<'static> {
+    text_style(size).pos(Pos::new(HPos::Center, VPos::Center))
+}
+
+/// Votes per stimulus, sorted by votes, bars coloured by their first group, with a bracket
+/// per group above the bars.
+#[derive(Debug, Clone)]
+pub struct VotesFigure {
+    /// Title.
+    pub title: String,
+    /// Labels.
+    pub labels: Vec<String>,
+    /// Votes.
+    pub votes: Vec<u32>,
+    /// Groups (indices into labels), most voted first.
+    pub groups: Vec<Vec<usize>>,
+    /// `ceil(R_c)`, shown in the subtitle.
+    pub ceil_rc: Option<u64>,
+}
+
+impl VotesFigure {
+    fn draw_on<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let n = self.labels.len();
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| self.votes[b].cmp(&self.votes[a]).then(a.cmp(&b)));
+        let position: Vec<usize> = {
+            let mut p = vec![0; n];
+            for (k, &i) in order.iter().enumerate() {
+                p[i] = k;
+            }
+            p
+        };
+        let max = f64::from(self.votes.iter().copied().max().unwrap_or(1).max(1));
+        let bracket_step = max * 0.08;
+        let top = max * 1.08 + bracket_step * self.groups.len() as f64;
+        let caption = match self.ceil_rc {
+            Some(c) => format!("{} (groups: differences < ceil(Rc) = {c})", self.title),
+            None => self.title.clone(),
+        };
+        let mut chart = ChartBuilder::on(area)
+            .caption(caption, text_style(20.0))
+            .margin(12)
+            .x_label_area_size(10)
+            .y_label_area_size(50)
+            .build_cartesian_2d(-0.6..n as f64 - 0.4, -max * 0.12..top)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(0)
+            .y_desc("votes")
+            .label_style(text_style(14.0))
+            .axis_desc_style(text_style(15.0))
+            .draw()
+            .map_err(err)?;
+        let first_group = |i: usize| self.groups.iter().position(|g| g.contains(&i));
+        for (k, &i) in order.iter().enumerate() {
+            let colour = first_group(i).map_or(BLACK.mix(0.4).to_rgba(), |g| group_colour(g).to_rgba());
+            let x = k as f64;
+            let v = f64::from(self.votes[i]);
+            chart.draw_series([Rectangle::new([(x - 0.38, 0.0), (x + 0.38, v)], colour.filled())]).map_err(err)?;
+            chart
+                .draw_series([Text::new(format!("{}", self.votes[i]), (x, v + max * 0.03), centred(13.0))])
+                .map_err(err)?;
+            chart.draw_series([Text::new(self.labels[i].clone(), (x, -max * 0.06), centred(13.0))]).map_err(err)?;
+        }
+        for (g, members) in self.groups.iter().enumerate() {
+            let xs: Vec<f64> = members.iter().map(|&i| position[i] as f64).collect();
+            let (lo, hi) = (
+                xs.iter().copied().fold(f64::INFINITY, f64::min),
+                xs.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            );
+            let y = max * 1.08 + bracket_step * (g as f64 + 0.5);
+            let style = group_colour(g).stroke_width(3);
+            chart
+                .draw_series([PathElement::new(
+                    vec![
+                        (lo - 0.3, y - bracket_step * 0.3),
+                        (lo - 0.3, y),
+                        (hi + 0.3, y),
+                        (hi + 0.3, y - bracket_step * 0.3),
+                    ],
+                    style,
+                )])
+                .map_err(err)?;
+            chart
+                .draw_series([Text::new(
+                    format!("G{}", g + 1),
+                    (hi + 0.35, y),
+                    text_style(13.0).pos(Pos::new(HPos::Left, VPos::Center)),
+                )])
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+impl Figure for VotesFigure {
+    fn size(&self) -> (u32, u32) {
+        ((180 + 70 * self.labels.len() as u32).max(640), 480)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        self.draw_on(root)
+    }
+}
+
+/// Several figures of one kind side by side (e.g. mono and stereo).
+#[derive(Debug, Clone)]
+pub struct SideBySide<F> {
+    /// The panels, left to right.
+    pub panels: Vec<F>,
+}
+
+impl Figure for SideBySide<VotesFigure> {
+    fn size(&self) -> (u32, u32) {
+        let (w, h) = self.panels.iter().map(Figure::size).fold((0, 0), |a, b| (a.0 + b.0, a.1.max(b.1)));
+        (w.max(1), h.max(1))
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let areas = root.split_evenly((1, self.panels.len().max(1)));
+        for (panel, area) in self.panels.iter().zip(&areas) {
+            panel.draw_on(area)?;
+        }
+        Ok(())
+    }
+}
+
+/// One cell of the shutter x sampling grid.
+#[derive(Debug, Clone)]
+pub struct GridCell {
+    /// Column (shutter level index, left to right).
+    pub column: usize,
+    /// Row (sampling level index, bottom to top).
+    pub row: usize,
+    /// Label, e.g. `T3-A4`.
+    pub label: String,
+    /// Votes.
+    pub votes: u32,
+    /// Groups it belongs to (0-based).
+    pub groups: Vec<usize>,
+}
+
+/// The shutter (columns) x sampling (rows) grid coloured by group, as thesis figures 5.6/6.8.
+#[derive(Debug, Clone)]
+pub struct GridFigure {
+    /// Title.
+    pub title: String,
+    /// Column titles (shutter levels).
+    pub columns: Vec<String>,
+    /// Row titles (sampling levels), bottom to top.
+    pub rows: Vec<String>,
+    /// Cells.
+    pub cells: Vec<GridCell>,
+}
+
+impl Figure for GridFigure {
+    fn size(&self) -> (u32, u32) {
+        (160 + 170 * self.columns.len() as u32, 140 + 120 * self.rows.len() as u32)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let (nc, nr) = (self.columns.len() as f64, self.rows.len() as f64);
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, text_style(20.0))
+            .margin(12)
+            .build_cartesian_2d(-0.7..nc, -0.5..nr)
+            .map_err(err)?;
+        for cell in &self.cells {
+            let (x, y) = (cell.column as f64, cell.row as f64);
+            let colour = cell.groups.first().map_or(WHITE.to_rgba(), |&g| group_colour(g).mix(0.55));
+            chart
+                .draw_series([Rectangle::new([(x + 0.03, y + 0.03), (x + 0.97, y + 0.97)], colour.filled())])
+                .map_err(err)?;
+            // Every group the cell belongs to, as a stripe along its bottom edge.
+            let k = cell.groups.len().max(1) as f64;
+            for (s, &g) in cell.groups.iter().enumerate() {
+                let x0 = x + 0.03 + 0.94 * s as f64 / k;
+                chart
+                    .draw_series([Rectangle::new(
+                        [(x0, y + 0.03), (x0 + 0.94 / k, y + 0.18)],
+                        group_colour(g).filled(),
+                    )])
+                    .map_err(err)?;
+            }
+            let groups = cell.groups.iter().map(|g| format!("G{}", g + 1)).collect::<Vec<_>>().join(" ");
+            chart.draw_series([Text::new(cell.label.clone(), (x + 0.5, y + 0.75), centred(16.0))]).map_err(err)?;
+            chart
+                .draw_series([Text::new(format!("{} votes", cell.votes), (x + 0.5, y + 0.52), centred(14.0))])
+                .map_err(err)?;
+            chart.draw_series([Text::new(groups, (x + 0.5, y + 0.32), centred(14.0))]).map_err(err)?;
+        }
+        for (c, title) in self.columns.iter().enumerate() {
+            chart.draw_series([Text::new(title.clone(), (c as f64 + 0.5, -0.25), centred(16.0))]).map_err(err)?;
+        }
+        for (r, title) in self.rows.iter().enumerate() {
+            chart.draw_series([Text::new(title.clone(), (-0.35, r as f64 + 0.5), centred(16.0))]).map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+/// A t x t heat map of matching accuracy (darker = less accurate, as thesis figure 5.5).
+#[derive(Debug, Clone)]
+pub struct HeatmapFigure {
+    /// Title.
+    pub title: String,
+    /// Labels of rows and columns.
+    pub labels: Vec<String>,
+    /// Accuracy per cell.
+    pub values: Vec<Vec<Option<f64>>>,
+}
+
+impl Figure for HeatmapFigure {
+    fn size(&self) -> (u32, u32) {
+        let n = self.labels.len() as u32;
+        (140 + 90 * n, 140 + 90 * n)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let n = self.labels.len() as f64;
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, text_style(20.0))
+            .margin(12)
+            .build_cartesian_2d(-0.8..n, -0.1..n + 0.8)
+            .map_err(err)?;
+        for (i, row) in self.values.iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                // Row i from the top.
+                let (x, y) = (j as f64, n - 1.0 - i as f64);
+                let (fill, text) = match v {
+                    Some(a) => {
+                        let g = (40.0 + 215.0 * a.clamp(0.0, 1.0)) as u8;
+                        (RGBColor(g, g, g), format!("{:.0} %", a * 100.0))
+                    }
+                    None => (RGBColor(250, 240, 230), "-".to_owned()),
+                };
+                chart.draw_series([Rectangle::new([(x, y), (x + 1.0, y + 1.0)], fill.filled())]).map_err(err)?;
+                let colour = if v.is_some_and(|a| a < 0.55) { WHITE } else { BLACK };
+                chart.draw_series([Text::new(text, (x + 0.5, y + 0.5), centred(15.0).color(&colour))]).map_err(err)?;
+            }
+        }
+        for (k, label) in self.labels.iter().enumerate() {
+            chart.draw_series([Text::new(label.clone(), (k as f64 + 0.5, n + 0.35), centred(15.0))]).map_err(err)?;
+            chart.draw_series([Text::new(label.clone(), (-0.4, n - 0.5 - k as f64), centred(15.0))]).map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+/// Preference bars with standard-error bars: for every factor level pair, one pair of bars
+/// (first level, second level) per series (segments, or mono and stereo).
+#[derive(Debug, Clone)]
+pub struct PreferenceFigure {
+    /// Title.
+    pub title: String,
+    /// Series name and its preferences.
+    pub series: Vec<(String, Vec<LevelPreference>)>,
+}
+
+impl Figure for PreferenceFigure {
+    fn size(&self) -> (u32, u32) {
+        let pairs = self.series.first().map_or(1, |s| s.1.len()) as u32;
+        ((200 + pairs * self.series.len() as u32 * 110).max(640), 520)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let Some((_, first)) = self.series.first() else { return Ok(()) };
+        let ns = self.series.len() as f64;
+        let width = first.len() as f64 * (ns + 0.6);
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, text_style(20.0))
+            .margin(12)
+            .y_label_area_size(55)
+            .build_cartesian_2d(-0.4..width, -0.2..1.08)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(0)
+            .y_desc("share of trials preferring")
+            .y_label_formatter(&|y| if *y < 0.0 { String::new() } else { format!("{:.0} %", y * 100.0) })
+            .label_style(text_style(14.0))
+            .axis_desc_style(text_style(15.0))
+            .draw()
+            .map_err(err)?;
+        chart
+            .draw_series([PathElement::new(vec![(-0.4, 0.5), (width, 0.5)], BLACK.mix(0.5).stroke_width(1))])
+            .map_err(err)?;
+        let colours = [RGBColor(52, 101, 164), RGBColor(245, 121, 0)];
+        for (p, pref) in first.iter().enumerate() {
+            let base = p as f64 * (ns + 0.6);
+            for (s, (name, prefs)) in self.series.iter().enumerate() {
+                let Some(q) = prefs.iter().find(|q| q.level_a == pref.level_a && q.level_b == pref.level_b) else {
+                    continue;
+                };
+                let x = base + s as f64;
+                for (k, share) in [q.p_a, q.p_b].into_iter().enumerate() {
+                    if !share.is_finite() {
+                        continue;
+                    }
+                    let x0 = x + k as f64 * 0.45;
+                    chart
+                        .draw_series([Rectangle::new([(x0, 0.0), (x0 + 0.42, share)], colours[k].filled())])
+                        .map_err(err)?;
+                    let xc = x0 + 0.21;
+                    chart
+                        .draw_series([PathElement::new(
+                            vec![(xc, (share - q.se).max(0.0)), (xc, (share + q.se).min(1.0))],
+                            BLACK.stroke_width(2),
+                        )])
+                        .map_err(err)?;
+                    let level = if k == 0 { &q.level_a } else { &q.level_b };
+                    chart.draw_series([Text::new(level.clone(), (xc, share + 0.04), centred(12.0))]).map_err(err)?;
+                }
+                chart.draw_series([Text::new(name.clone(), (x + 0.43, -0.06), centred(12.0))]).map_err(err)?;
+            }
+            let star = if pref.p_value < 0.05 { " *" } else { "" };
+            chart
+                .draw_series([Text::new(
+                    format!("{} vs {}{star}", pref.level_a, pref.level_b),
+                    (base + ns / 2.0 - 0.05, -0.14),
+                    centred(15.0),
+                )])
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+/// Thurstone scale values with confidence intervals, sorted by value.
+#[derive(Debug, Clone)]
+pub struct ScaleFigure {
+    /// Title.
+    pub title: String,
+    /// Labels.
+    pub labels: Vec<String>,
+    /// Scores.
+    pub scores: Vec<f64>,
+    /// Lower interval ends (may be empty).
+    pub lower: Vec<f64>,
+    /// Upper interval ends (may be empty).
+    pub upper: Vec<f64>,
+}
+
+impl Figure for ScaleFigure {
+    fn size(&self) -> (u32, u32) {
+        ((180 + 70 * self.labels.len() as u32).max(640), 460)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let n = self.labels.len();
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| self.scores[b].total_cmp(&self.scores[a]));
+        let all: Vec<f64> =
+            self.scores.iter().chain(&self.lower).chain(&self.upper).copied().filter(|v| v.is_finite()).collect();
+        let lo = all.iter().copied().fold(0.0_f64, f64::min) - 0.3;
+        let hi = all.iter().copied().fold(0.0_f64, f64::max) + 0.3;
+        let pad = (hi - lo) * 0.1;
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, text_style(20.0))
+            .margin(12)
+            .y_label_area_size(55)
+            .build_cartesian_2d(-0.6..n as f64 - 0.4, lo - pad..hi)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(0)
+            .y_desc("quality (JOD, mean 0)")
+            .label_style(text_style(14.0))
+            .axis_desc_style(text_style(15.0))
+            .draw()
+            .map_err(err)?;
+        for (k, &i) in order.iter().enumerate() {
+            let x = k as f64;
+            if let (Some(&l), Some(&u)) = (self.lower.get(i), self.upper.get(i)) {
+                chart.draw_series([PathElement::new(vec![(x, l), (x, u)], BLACK.stroke_width(2))]).map_err(err)?;
+                for y in [l, u] {
+                    chart
+                        .draw_series([PathElement::new(vec![(x - 0.12, y), (x + 0.12, y)], BLACK.stroke_width(2))])
+                        .map_err(err)?;
+                }
+            }
+            chart.draw_series([Circle::new((x, self.scores[i]), 6, group_colour(0).filled())]).map_err(err)?;
+            chart.draw_series([Text::new(self.labels[i].clone(), (x, lo - pad * 0.5), centred(13.0))]).map_err(err)?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,483 @@
+//! The report folder: `report.md` (tables), `report.json` (every number, format
+//! `blurlab-report/1`) and the figures as PNG and SVG. Render costs come from the stimulus
+//! set's manifests (`index.json` and each sequence's `manifest.json`).
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+use study::manifest::{SequenceManifest, SetIndex};
+use study::{Factor, StimulusId};
+
+use crate::experiment::{AnalysisOptions, Cost, ExperimentReport, analyze_experiment};
+use crate::logs::{LoadOptions, LogError, load_experiments};
+use crate::plots::{
+    Figure, GridCell, GridFigure, HeatmapFigure, PlotError, PreferenceFigure, ScaleFigure, SideBySide, VotesFigure,
+    save_figure,
+};
+
+/// Format tag of report.json.
+pub const REPORT_FORMAT: &str = "blurlab-report/1";
+
+/// Why a report cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// Logs could not be read or are inconsistent.
+    #[error(transparent)]
+    Logs(#[from] LogError),
+    /// The manifest could not be read.
+    #[error(transparent)]
+    Manifest(#[from] study::manifest::ManifestError),
+    /// A figure failed.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// Writing failed.
+    #[error("{path}: cannot write: {source}")]
+    Io {
+        /// File or folder.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+}
+
+/// A whole report: one analysis per experiment and the mono/stereo pairs found.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    /// Always [`REPORT_FORMAT`].
+    pub format: &'static str,
+    /// blurlab version.
+    pub software_version: &'static str,
+    /// Stimulus set whose manifest gave the costs.
+    pub manifest: Option<String>,
+    /// Per experiment.
+    pub experiments: Vec<ExperimentReport>,
+    /// `(mono, stereo)` experiment names compared side by side.
+    pub mono_stereo_pairs: Vec<(String, String)>,
+    /// Figures written, relative to the report folder.
+    pub figures: Vec<String>,
+}
+
+/// Render costs of every sequence in a set (`SET` folder or its `index.json`).
+pub fn load_costs(set: &Path) -> Result<BTreeMap<StimulusId, Cost>, ReportError> {
+    let (root, index_path) = if set.is_dir() {
+        (set.to_owned(), set.join("index.json"))
+    } else {
+        (set.parent().unwrap_or(Path::new(".")).to_owned(), set.to_owned())
+    };
+    let index = SetIndex::read(&index_path)?;
+    let mut costs = BTreeMap::new();
+    for entry in &index.sequences {
+        let manifest = SequenceManifest::read(&root.join(&entry.folder).join("manifest.json"))?;
+        costs.insert(entry.id, Cost { wall_seconds: manifest.wall_seconds(), cpu_seconds: manifest.cpu_seconds() });
+    }
+    Ok(costs)
+}
+
+/// Reads the logs under `results`, analyses every experiment and builds the report.
+pub fn build_report(
+    results: &[PathBuf],
+    manifest: Option<&Path>,
+    experiments_dir: Option<&Path>,
+    options: AnalysisOptions,
+) -> Result<Report, ReportError> {
+    let costs = match manifest {
+        Some(set) => load_costs(set)?,
+        None => BTreeMap::new(),
+    };
+    let load = LoadOptions {
+        experiments_dir: experiments_dir.map(Path::to_owned),
+        known_stimuli: manifest.map(|_| costs.keys().copied().collect()),
+    };
+    let data = load_experiments(results, &load)?;
+    let experiments: Vec<ExperimentReport> = data.iter().map(|d| analyze_experiment(d, &costs, options)).collect();
+    let mut pairs = Vec::new();
+    for e in &experiments {
+        if let Some(rest) = e.name.strip_prefix("mono-") {
+            let stereo = format!("stereo-{rest}");
+            if experiments.iter().any(|x| x.name == stereo) {
+                pairs.push((e.name.clone(), stereo));
+            }
+        }
+    }
+    Ok(Report {
+        format: REPORT_FORMAT,
+        software_version: study::SOFTWARE_VERSION,
+        manifest: manifest.map(|m| m.display().to_string()),
+        experiments,
+        mono_stereo_pairs: pairs,
+        figures: Vec::new(),
+    })
+}
+
+fn votes_figure(e: &ExperimentReport) -> Option<VotesFigure> {
+    let p = e.paired.as_ref()?;
+    Some(VotesFigure {
+        title: format!("{}: votes", e.name),
+        labels: e.labels.clone(),
+        votes: p.votes.clone(),
+        groups: p
+            .groups
+            .iter()
+            .map(|g| g.members.iter().filter_map(|m| e.labels.iter().position(|l| *l == m.label)).collect())
+            .collect(),
+        ceil_rc: p.critical.map(|c| c.ceil_rc),
+    })
+}
+
+/// The shutter x sampling grid when exactly those two factors vary.
+fn grid_figure(e: &ExperimentReport) -> Option<GridFigure> {
+    let p = e.paired.as_ref()?;
+    if e.varying != [Factor::Shutter, Factor::Samples] {
+        return None;
+    }
+    let mut shutters: Vec<u8> = e.stimuli.iter().map(|s| s.shutter).collect();
+    let mut samples: Vec<u8> = e.stimuli.iter().map(|s| s.samples).collect();
+    shutters.sort_unstable();
+    shutters.dedup();
+    samples.sort_unstable();
+    samples.dedup();
+    let cells = e
+        .stimuli
+        .iter()
+        .enumerate()
+        .map(|(i, s)| GridCell {
+            column: shutters.iter().position(|&x| x == s.shutter).unwrap_or(0),
+            row: samples.iter().position(|&x| x == s.samples).unwrap_or(0),
+            label: e.labels[i].clone(),
+            votes: p.votes[i],
+            groups: p.memberships[i].clone(),
+        })
+        .collect();
+    Some(GridFigure {
+        title: format!("{}: groups (shutter left to right, sampling bottom to top)", e.name),
+        columns: shutters.iter().map(|l| format!("T{l}")).collect(),
+        rows: samples.iter().map(|l| format!("A{l}")).collect(),
+        cells,
+    })
+}
+
+/// Writes the report folder: figures, report.json and report.md. Returns report.md's path.
+pub fn write_report(report: &mut Report, dir: &Path) -> Result<PathBuf, ReportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io { path: dir.to_owned(), source })?;
+    let mut figures: Vec<String> = Vec::new();
+    let mut save = |fig_result: Result<Vec<PathBuf>, PlotError>| -> Result<(), ReportError> {
+        for p in fig_result? {
+            figures.push(p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
+        }
+        Ok(())
+    };
+    for e in &report.experiments {
+        if let Some(f) = votes_figure(e) {
+            save(save_figure(&f, dir, &format!("{}-votes", e.name)))?;
+        }
+        if let Some(f) = grid_figure(e) {
+            save(save_figure(&f, dir, &format!("{}-grid", e.name)))?;
+        }
+        if let Some(p) = &e.paired {
+            let fig = ScaleFigure {
+                title: format!(
+                    "{}: Thurstone Case V scale, {:.0} % bootstrap intervals",
+                    e.name,
+                    p.scale.options.confidence * 100.0
+                ),
+                labels: e.labels.clone(),
+                scores: p.scale.scores.clone(),
+                lower: p.scale.lower.clone(),
+                upper: p.scale.upper.clone(),
+            };
+            save(save_figure(&fig, dir, &format!("{}-scale", e.name)))?;
+            if p.factor_preferences.get("all").is_some_and(|v| !v.is_empty()) {
+                let series = p.factor_preferences.iter().map(|(k, v)| (k.clone(), v.clone())).collect::<Vec<_>>();
+                // "all" first.
+                let mut series = series;
+                series.sort_by_key(|(k, _)| k != "all");
+                let fig =
+                    PreferenceFigure { title: format!("{}: preference per factor (error bars: SE)", e.name), series };
+                save(save_figure(&fig, dir, &format!("{}-preferences", e.name)))?;
+            }
+        }
+        if let Some(m) = &e.matching {
+            let fig = HeatmapFigure {
+                title: format!("{}: matching accuracy {:.2} %", e.name, m.overall * 100.0),
+                labels: e.labels.clone(),
+                values: m.accuracy.clone(),
+            };
+            save(save_figure(&fig, dir, &format!("{}-matching", e.name)))?;
+        }
+    }
+    for (mono, stereo) in &report.mono_stereo_pairs {
+        let find = |n: &str| report.experiments.iter().find(|e| e.name == n);
+        let (Some(a), Some(b)) = (find(mono), find(stereo)) else { continue };
+        let stem = format!("{}-mono-vs-stereo", mono.trim_start_matches("mono-"));
+        if let (Some(fa), Some(fb)) = (votes_figure(a), votes_figure(b)) {
+            save(save_figure(&SideBySide { panels: vec![fa, fb] }, dir, &format!("{stem}-votes")))?;
+        }
+        if let (Some(pa), Some(pb)) = (&a.paired, &b.paired) {
+            let all =
+                |p: &crate::experiment::PairedReport| p.factor_preferences.get("all").cloned().unwrap_or_default();
+            if !all(pa).is_empty() {
+                let fig = PreferenceFigure {
+                    title: format!("{stem}: preference per factor, mono vs stereo (error bars: SE)"),
+                    series: vec![("mono".into(), all(pa)), ("stereo".into(), all(pb))],
+                };
+                save(save_figure(&fig, dir, &format!("{stem}-preferences")))?;
+            }
+        }
+    }
+    report.figures = figures;
+    let json = serde_json::to_string_pretty(&*report).expect("report serialises");
+    let json_path = dir.join("report.json");
+    study::fsio::write_atomic(&json_path, json.as_bytes())
+        .map_err(|source| ReportError::Io { path: json_path, source })?;
+    let md_path = dir.join("report.md");
+    study::fsio::write_atomic(&md_path, markdown(report).as_bytes())
+        .map_err(|source| ReportError::Io { path: md_path.clone(), source })?;
+    Ok(md_path)
+}
+
+fn fmt_p(p: f64) -> String {
+    if !p.is_finite() {
+        "-".into()
+    } else if p < 1e-4 {
+        format!("{p:.1e}")
+    } else {
+        format!("{p:.4}")
+    }
+}
+
+fn fmt_opt(v: Option<f64>, digits: usize) -> String {
+    v.map_or("-".into(), |v| format!("{v:.digits$}"))
+}
+
+/// The report as Markdown.
+pub fn markdown(report: &Report) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# blurlab analysis report\n");
+    let _ = writeln!(
+        s,
+        "blurlab {}; costs from {}.\n",
+        report.software_version,
+        report.manifest.as_deref().unwrap_or("(no manifest given)")
+    );
+    for e in &report.experiments {
+        let _ = writeln!(s, "## {} ({}, {:?})\n", e.name, e.task, e.view);
+        let completed = e.sessions.iter().filter(|x| x.completed).count();
+        let participants: std::collections::BTreeSet<&str> =
+            e.sessions.iter().map(|x| x.participant.as_str()).collect();
+        let _ = writeln!(
+            s,
+            "{} sessions ({} completed) from {} participants; {} stimuli; definition: {}; experiment sha256 `{}`.\n",
+            e.sessions.len(),
+            completed,
+            participants.len(),
+            e.stimuli.len(),
+            e.definition.as_deref().unwrap_or("not found (stimuli taken from the logs)"),
+            e.experiment_sha256
+        );
+        if let Some(p) = &e.paired {
+            let _ = writeln!(s, "**Judges.** {}\n", p.judges_statement);
+            let _ = writeln!(s, "![votes]({}-votes.png)\n", e.name);
+            let _ = writeln!(
+                s,
+                "| stimulus | id | votes (complete judges) | votes (all trials) | groups | scale (JOD) | CI |"
+            );
+            let _ = writeln!(s, "| --- | --- | ---: | ---: | --- | ---: | --- |");
+            let all_scores = p.matrix_all.scores();
+            let mut order: Vec<usize> = (0..e.stimuli.len()).collect();
+            order.sort_by(|&a, &b| p.votes[b].cmp(&p.votes[a]).then(a.cmp(&b)));
+            for i in order {
+                let groups = p.memberships[i].iter().map(|g| format!("G{}", g + 1)).collect::<Vec<_>>().join(" ");
+                let ci = match (p.scale.lower.get(i), p.scale.upper.get(i)) {
+                    (Some(l), Some(u)) => format!("[{l:.2}, {u:.2}]"),
+                    _ => "-".into(),
+                };
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {:.3} | {} |",
+                    e.labels[i], e.stimuli[i], p.votes[i], all_scores[i], groups, p.scale.scores[i], ci
+                );
+            }
+            let _ = writeln!(s);
+            match &p.critical {
+                Some(c) => {
+                    let _ = writeln!(
+                        s,
+                        "**Significance grouping** (David): alpha = {}, t = {}, m = {}: W = {:.4}, R_c = {:.3}, ceil(R_c) = {}; {} groups.\n",
+                        c.alpha,
+                        c.t,
+                        c.judges,
+                        c.w,
+                        c.rc,
+                        c.ceil_rc,
+                        p.groups.len()
+                    );
+                }
+                None => {
+                    let _ = writeln!(s, "**Significance grouping**: not available (no complete judge).\n");
+                }
+            }
+            if !p.groups.is_empty() {
+                let _ = writeln!(s, "| group | members (votes, wall s) | cheapest | saving vs most expensive of G1 |");
+                let _ = writeln!(s, "| --- | --- | --- | ---: |");
+                for g in &p.groups {
+                    let members = g
+                        .members
+                        .iter()
+                        .map(|m| match m.cost {
+                            Some(c) => format!("{} ({}, {:.1} s)", m.label, m.votes, c.wall_seconds),
+                            None => format!("{} ({})", m.label, m.votes),
+                        })
+                        .collect::<Vec<_>>()
+                        .join(", ");
+                    let _ = writeln!(
+                        s,
+                        "| G{} | {} | {} | {} |",
+                        g.number,
+                        members,
+                        g.cheapest.as_deref().unwrap_or("-"),
+                        g.saving_vs_top_most_expensive.map_or("-".into(), |v| format!("{:.1} %", v * 100.0))
+                    );
+                }
+                let _ = writeln!(s);
+            }
+            if let Some(r) = &p.recommendation {
+                let _ = writeln!(
+                    s,
+                    "**Recommendation.** {} ({:.1} s) is perceptually equivalent to {} ({:.1} s): render it instead and save {:.1} % of the cost.\n",
+                    r.cheapest,
+                    r.cheapest_wall_seconds,
+                    r.reference,
+                    r.reference_wall_seconds,
+                    r.saving * 100.0
+                );
+            }
+            if e.varying == [Factor::Shutter, Factor::Samples] {
+                let _ = writeln!(s, "![grid]({}-grid.png)\n", e.name);
+            }
+            let _ = writeln!(
+                s,
+                "**Consistency and agreement.** Mean zeta = {} over {} complete judges.",
+                fmt_opt(p.mean_zeta, 4),
+                p.complete_judges
+            );
+            match &p.agreement {
+                Ok(a) => {
+                    let _ = writeln!(
+                        s,
+                        " Kendall's u = {:.4} in [{:.4}, 1] (m = {}), chi-square = {:.2}, df = {:.2}, p = {}.\n",
+                        a.u,
+                        a.u_min,
+                        a.judges,
+                        a.chi_square,
+                        a.df,
+                        fmt_p(a.p_value)
+                    );
+                }
+                Err(why) => {
+                    let _ = writeln!(s, " Agreement not available: {why}.\n");
+                }
+            }
+            let _ =
+                writeln!(s, "| judge | complete | judgments | circular triads | zeta | triads chi-square (df) | p |");
+            let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | --- | ---: |");
+            for j in &p.judges {
+                let (chi, pv) = match j.triad_test {
+                    Some(tt) => (format!("{:.2} ({:.2})", tt.chi_square, tt.df), fmt_p(tt.p_value)),
+                    None => ("-".into(), "-".into()),
+                };
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {} | {} |",
+                    j.name,
+                    if j.complete { "yes" } else { "no" },
+                    j.judgments,
+                    j.circular_triads.map_or("-".into(), |d| d.to_string()),
+                    fmt_opt(j.zeta, 4),
+                    chi,
+                    pv
+                );
+            }
+            let _ = writeln!(s);
+            if p.factor_preferences.get("all").is_some_and(|v| !v.is_empty()) {
+                let _ = writeln!(s, "**Preference per factor** (chi-square against 50 : 50, 1 df):\n");
+                let _ = writeln!(s, "| segment | levels | n | first level | second level | SE | chi-square | p |");
+                let _ = writeln!(s, "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |");
+                for (segment, prefs) in &p.factor_preferences {
+                    for q in prefs {
+                        let _ = writeln!(
+                            s,
+                            "| {segment} | {} vs {} | {} | {:.1} % | {:.1} % | {:.1} % | {:.2} | {} |",
+                            q.level_a,
+                            q.level_b,
+                            q.n,
+                            q.p_a * 100.0,
+                            q.p_b * 100.0,
+                            q.se * 100.0,
+                            q.chi_square,
+                            fmt_p(q.p_value)
+                        );
+                    }
+                }
+                let _ = writeln!(s, "\n![preferences]({}-preferences.png)\n", e.name);
+            }
+            let _ = writeln!(
+                s,
+                "**Scale.** Thurstone Case V (MAP, prior sd {} JOD), {} bootstrap resamples over judges, seed {}: ![scale]({}-scale.png)\n",
+                p.scale.options.prior_sd, p.scale.options.resamples, p.scale.options.seed, e.name
+            );
+        }
+        if let Some(m) = &e.matching {
+            let _ = writeln!(s, "**Matching accuracy**: {:.2} % of {} trials.\n", m.overall * 100.0, m.trials);
+            let _ = write!(s, "| |");
+            for l in &e.labels {
+                let _ = write!(s, " {l} |");
+            }
+            let _ = writeln!(s);
+            let _ = writeln!(s, "|---{}", "|---".repeat(e.labels.len()));
+            for (i, row) in m.accuracy.iter().enumerate() {
+                let _ = write!(s, "| {} |", e.labels[i]);
+                for (j, v) in row.iter().enumerate() {
+                    let _ =
+                        write!(s, " {} |", v.map_or("-".into(), |a| format!("{:.0} % ({})", a * 100.0, m.total[i][j])));
+                }
+                let _ = writeln!(s);
+            }
+            for (segment, a) in &m.segments {
+                let _ = writeln!(s, "\n{segment}: {:.2} %", a * 100.0);
+            }
+            let _ = writeln!(s, "\n![matching]({}-matching.png)\n", e.name);
+        }
+        if !e.warnings.is_empty() {
+            let _ = writeln!(s, "**Warnings**\n");
+            for w in &e.warnings {
+                let _ = writeln!(s, "- {w}");
+            }
+            let _ = writeln!(s);
+        }
+    }
+    for (mono, stereo) in &report.mono_stereo_pairs {
+        let stem = format!("{}-mono-vs-stereo", mono.trim_start_matches("mono-"));
+        let _ = writeln!(s, "## {mono} vs {stereo}\n\n![votes]({stem}-votes.png)\n");
+    }
+    let _ = writeln!(s, "Figures: {}", report.figures.join(", "));
+    s
+}
+
+/// Draws a figure of a vote table (for `analyze --votes`).
+pub fn votes_table_figure(
+    title: &str,
+    labels: &[String],
+    votes: &[u32],
+    groups: &[Vec<String>],
+    ceil_rc: u64,
+) -> impl Figure {
+    VotesFigure {
+        title: title.to_owned(),
+        labels: labels.to_vec(),
+        votes: votes.to_vec(),
+        groups: groups.iter().map(|g| g.iter().filter_map(|m| labels.iter().position(|l| l == m)).collect()).collect(),
+        ceil_rc: Some(ceil_rc),
+    }
+}

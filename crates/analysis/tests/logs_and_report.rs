@@ -1,0 +1,392 @@
+//! End-to-end tests of the analysis over synthetic response logs written with
+//! `study::response::ResponseLog`: statistics, report folder, figures, cost-aware
+//! equivalence, and bad input (errors naming file and line).
+
+use std::path::{Path, PathBuf};
+
+use analysis::experiment::{AnalysisOptions, JudgeUnit};
+use analysis::report::{build_report, write_report};
+use analysis::scaling::ScaleOptions;
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+use study::StimulusId;
+use study::manifest::{Factors, FrameRecord, IndexEntry, LevelInfo, SequenceManifest, SetIndex};
+use study::response::{REQUIRED_KEYS, ResponseLog, SessionHeader, Task, TrialRow};
+
+fn id(s: &str) -> StimulusId {
+    s.parse().unwrap()
+}
+
+fn header(experiment: &str, participant: &str, session: u32, attributes: &str) -> SessionHeader {
+    let mut h = SessionHeader::default();
+    for k in REQUIRED_KEYS {
+        h.set(k, "x");
+    }
+    h.set("experiment", experiment);
+    h.set("experiment_sha256", format!("sha-{experiment}"));
+    h.set("participant", participant);
+    h.set("session", session.to_string());
+    h.set("attributes", attributes);
+    h
+}
+
+fn row(trial: u32, task: Task, shown: Vec<StimulusId>, choice: StimulusId, correct: Option<bool>) -> TrialRow {
+    TrialRow {
+        trial,
+        practice: false,
+        task,
+        shown,
+        choice,
+        correct,
+        response_ms: 900,
+        replays: 0,
+        dropped_frames: 0,
+        timestamp: "2026-11-23T12:00:00.000Z".into(),
+    }
+}
+
+/// A simulated observer preferring stimuli with higher `quality`, with uniform noise.
+#[allow(clippy::too_many_arguments)]
+fn write_2afc_session(
+    path: &Path,
+    experiment: &str,
+    participant: &str,
+    session: u32,
+    attributes: &str,
+    stimuli: &[StimulusId],
+    quality: &dyn Fn(&StimulusId) -> f64,
+    repeats: u32,
+    rng: &mut Pcg64,
+) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let mut log = ResponseLog::create(path, &header(experiment, participant, session, attributes)).unwrap();
+    let mut trial = 0;
+    for _ in 0..repeats {
+        for i in 0..stimuli.len() {
+            for j in i + 1..stimuli.len() {
+                let (a, b) = if rng.random::<bool>() { (stimuli[i], stimuli[j]) } else { (stimuli[j], stimuli[i]) };
+                let noise: f64 = (rng.random::<f64>() - 0.5) * 2.0;
+                let choice = if quality(&a) - quality(&b) + noise > 0.0 { a } else { b };
+                log.append(&row(trial, Task::TwoAfc, vec![a, b], choice, None)).unwrap();
+                trial += 1;
+            }
+        }
+    }
+    log.mark_completed("2026-11-23T12:10:00.000Z").unwrap();
+}
+
+fn interaction_stimuli(view: &str) -> Vec<StimulusId> {
+    let mut v = Vec::new();
+    for t in 3..=5 {
+        for a in 3..=5 {
+            v.push(id(&format!("M2-S2-T{t}-A{a}{view}")));
+        }
+    }
+    v
+}
+
+fn shutter_quality(s: &StimulusId) -> f64 {
+    // T3 best, T5 worst; sampling matters little.
+    -1.2 * f64::from(s.shutter) + 0.1 * f64::from(s.samples)
+}
+
+/// A fake rendered set: index.json and one manifest per stimulus, cost proportional to samples.
+fn write_set(dir: &Path, stimuli: &[StimulusId]) {
+    let level = |label: String, value: f64| LevelInfo { name: label.clone(), label, value };
+    let mut entries = Vec::new();
+    for s in stimuli {
+        let folder = s.to_string();
+        std::fs::create_dir_all(dir.join(&folder)).unwrap();
+        let spp = [4, 128, 256, 384, 512][usize::from(s.samples) - 1];
+        let manifest = SequenceManifest {
+            format: study::manifest::SEQUENCE_FORMAT.into(),
+            id: *s,
+            view: s.view,
+            factors: Factors {
+                material: level(s.level_label(study::Factor::Material), f64::from(s.material)),
+                speed: level(s.level_label(study::Factor::Speed), 10.0),
+                shutter: level(s.level_label(study::Factor::Shutter), 0.25 * f64::from(s.shutter - 1)),
+                samples: level(s.level_label(study::Factor::Samples), f64::from(spp)),
+            },
+            method: "tracer".into(),
+            preset: "quick".into(),
+            width: 64,
+            height: 36,
+            fps: 30.0,
+            samples_per_pixel: spp,
+            master_seed: 1,
+            device: "test".into(),
+            software_version: "0".into(),
+            design_sha256: "d".into(),
+            frames: (0..2)
+                .map(|i| FrameRecord {
+                    index: i,
+                    png: format!("frame-{i:04}.png"),
+                    png_sha256: "p".into(),
+                    exr: None,
+                    exr_sha256: None,
+                    wall_seconds: f64::from(spp) / 100.0,
+                    cpu_seconds: f64::from(spp) / 50.0,
+                    nonfinite_samples: 0,
+                    seeds: vec![1],
+                })
+                .collect(),
+        };
+        let text = serde_json::to_string_pretty(&manifest).unwrap();
+        std::fs::write(dir.join(&folder).join("manifest.json"), text).unwrap();
+        entries.push(IndexEntry { id: *s, folder, manifest_sha256: "m".into() });
+    }
+    let index = SetIndex {
+        format: study::manifest::INDEX_FORMAT.into(),
+        design: "test".into(),
+        design_sha256: "d".into(),
+        preset: "quick".into(),
+        sequences: entries,
+    };
+    std::fs::write(dir.join("index.json"), serde_json::to_string_pretty(&index).unwrap()).unwrap();
+}
+
+fn options() -> AnalysisOptions {
+    AnalysisOptions {
+        alpha: 0.01,
+        judge_unit: JudgeUnit::Replicate,
+        scale: ScaleOptions { resamples: 200, seed: 3, ..Default::default() },
+    }
+}
+
+fn results_with_mono_and_stereo(root: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let mut rng = Pcg64::seed_from_u64(11);
+    let mono = root.join("results/mono-3-interactions");
+    let stereo = root.join("results/stereo-3-interactions");
+    let (sm, ss) = (interaction_stimuli(""), interaction_stimuli("-stereo"));
+    for p in 0..8 {
+        let code = format!("P{p:02}");
+        let attrs = if p % 2 == 0 { r#"{"cg_experience":"yes"}"# } else { r#"{"cg_experience":"no"}"# };
+        write_2afc_session(
+            &mono.join(&code).join("session-1.csv"),
+            "mono-3-interactions",
+            &code,
+            1,
+            attrs,
+            &sm,
+            &shutter_quality,
+            1,
+            &mut rng,
+        );
+        write_2afc_session(
+            &stereo.join(&code).join("session-1.csv"),
+            "stereo-3-interactions",
+            &code,
+            1,
+            attrs,
+            &ss,
+            &shutter_quality,
+            1,
+            &mut rng,
+        );
+    }
+    let set = root.join("set");
+    let all: Vec<StimulusId> = sm.iter().chain(&ss).copied().collect();
+    write_set(&set, &all);
+    (mono, stereo, set)
+}
+
+#[test]
+fn mono_and_stereo_interactions_give_a_full_report_with_costs_and_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mono, stereo, set) = results_with_mono_and_stereo(dir.path());
+    let mut report = build_report(&[mono, stereo], Some(&set), None, options()).unwrap();
+    assert_eq!(report.experiments.len(), 2);
+    assert_eq!(report.mono_stereo_pairs, vec![("mono-3-interactions".to_owned(), "stereo-3-interactions".to_owned())]);
+    let e = &report.experiments[0];
+    let p = e.paired.as_ref().unwrap();
+    assert_eq!(p.complete_judges, 8);
+    assert_eq!(p.votes.iter().sum::<u32>(), 8 * 36);
+    let c = p.critical.unwrap();
+    assert_eq!(c.t, 9);
+    // Observers prefer short shutters: the top group holds T3 stimuli only, the best is a T3.
+    let top = &p.groups[0];
+    assert!(top.members.iter().all(|m| m.id.shutter <= 4), "{top:?}");
+    assert_eq!(top.members[0].id.shutter, 3);
+    // Cost-aware equivalence: the cheapest member of the top group against its most expensive.
+    let r = p.recommendation.as_ref().unwrap();
+    assert!(r.cheapest_wall_seconds <= r.reference_wall_seconds);
+    assert!((r.saving - (1.0 - r.cheapest_wall_seconds / r.reference_wall_seconds)).abs() < 1e-12);
+    assert_eq!(top.saving_vs_top_most_expensive, Some(r.saving));
+    // Agreement and consistency are present and in range.
+    let a = p.agreement.as_ref().unwrap();
+    assert!(a.u > a.u_min && a.u <= 1.0);
+    assert!(p.judges.iter().all(|j| j.zeta.is_some_and(|z| (0.0..=1.0).contains(&z))));
+    // Segments.
+    assert!(p.factor_preferences.contains_key("cg_experience=yes") && p.factor_preferences.contains_key("all"));
+    let shutter = p.factor_preferences["all"].iter().find(|q| q.level_a == "T3" && q.level_b == "T5").unwrap();
+    assert!(shutter.p_a > 0.8 && shutter.p_value < 0.01, "{shutter:?}");
+
+    let out = dir.path().join("report");
+    let md = write_report(&mut report, &out).unwrap();
+    let text = std::fs::read_to_string(&md).unwrap();
+    assert!(text.contains("ceil(R_c)") && text.contains("Recommendation") && text.contains("Kendall's u"));
+    for stem in [
+        "mono-3-interactions-votes",
+        "mono-3-interactions-grid",
+        "mono-3-interactions-scale",
+        "3-interactions-mono-vs-stereo-votes",
+        "3-interactions-mono-vs-stereo-preferences",
+    ] {
+        for ext in ["png", "svg"] {
+            let f = out.join(format!("{stem}.{ext}"));
+            assert!(std::fs::metadata(&f).map(|m| m.len() > 1000).unwrap_or(false), "{}", f.display());
+        }
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(json["format"], "blurlab-report/1");
+    assert_eq!(json["experiments"][0]["paired"]["critical"]["ceil_rc"], c.ceil_rc);
+    assert_eq!(json["experiments"][0]["paired"]["scale"]["options"]["seed"], 3);
+}
+
+#[test]
+fn repeated_pairs_and_sessions_count_as_separate_judges_or_pooled() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rng = Pcg64::seed_from_u64(5);
+    let stimuli: Vec<StimulusId> = (1..=5).map(|a| id(&format!("M3-S2-T3-A{a}"))).collect();
+    let results = dir.path().join("results");
+    let q = |s: &StimulusId| f64::from(s.samples) * 0.4;
+    for p in 0..3 {
+        let code = format!("P{p}");
+        // Every pair twice within a session, as thesis 5.6.3, and a second session for P0.
+        write_2afc_session(
+            &results.join(&code).join("session-1.csv"),
+            "mono-2-sampling-2afc",
+            &code,
+            1,
+            "{}",
+            &stimuli,
+            &q,
+            2,
+            &mut rng,
+        );
+    }
+    write_2afc_session(
+        &results.join("P0/session-2.csv"),
+        "mono-2-sampling-2afc",
+        "P0",
+        2,
+        "{}",
+        &stimuli,
+        &q,
+        1,
+        &mut rng,
+    );
+    let report = build_report(std::slice::from_ref(&results), None, None, options()).unwrap();
+    let p = report.experiments[0].paired.as_ref().unwrap();
+    assert_eq!(p.complete_judges, 7);
+    assert_eq!(p.judges.len(), 7);
+    assert_eq!(p.critical.unwrap().judges, 7);
+    let mut pooled = options();
+    pooled.judge_unit = JudgeUnit::Participant;
+    let report = build_report(&[results], None, None, pooled).unwrap();
+    let p = report.experiments[0].paired.as_ref().unwrap();
+    assert_eq!(p.judges.len(), 3);
+    assert_eq!(p.judges[0].judgments, 30);
+    assert_eq!(p.complete_judges, 7);
+    assert!(p.judges_statement.contains("pooled"));
+}
+
+#[test]
+fn matching_logs_give_the_accuracy_matrix() {
+    let dir = tempfile::tempdir().unwrap();
+    let stimuli: Vec<StimulusId> = (1..=3).map(|t| id(&format!("M3-S2-T{t}-A5"))).collect();
+    let path = dir.path().join("results/P1/session-1.csv");
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let mut log = ResponseLog::create(&path, &header("mono-2-shutter-matching", "P1", 1, "{}")).unwrap();
+    let mut n = 0;
+    for i in 0..3 {
+        for j in i + 1..3 {
+            // Right when the candidates are two levels apart, wrong for neighbours.
+            let right = j - i == 2;
+            let (reference, other) = (stimuli[i], stimuli[j]);
+            let choice = if right { reference } else { other };
+            log.append(&row(n, Task::Match, vec![reference, reference, other], choice, Some(right))).unwrap();
+            n += 1;
+        }
+    }
+    log.mark_completed("t").unwrap();
+    let report = build_report(&[dir.path().join("results")], None, None, options()).unwrap();
+    let m = report.experiments[0].matching.as_ref().unwrap();
+    assert_eq!(m.trials, 3);
+    assert!((m.overall - 1.0 / 3.0).abs() < 1e-12);
+    assert_eq!(m.accuracy[0][2], Some(1.0));
+    assert_eq!(m.accuracy[2][0], Some(1.0));
+    assert_eq!(m.accuracy[0][1], Some(0.0));
+    assert_eq!(m.accuracy[1][1], None);
+    let mut report = report;
+    write_report(&mut report, &dir.path().join("out")).unwrap();
+    assert!(dir.path().join("out/mono-2-shutter-matching-matching.png").exists());
+}
+
+fn expect_error(results: &[PathBuf], manifest: Option<&Path>, needles: &[&str]) {
+    let e = build_report(results, manifest, None, options()).unwrap_err().to_string();
+    for needle in needles {
+        assert!(e.contains(needle), "`{e}` lacks `{needle}`");
+    }
+}
+
+#[test]
+fn bad_logs_are_errors_naming_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mono, _, set) = results_with_mono_and_stereo(dir.path());
+    let log = mono.join("P00/session-1.csv");
+    let original = std::fs::read_to_string(&log).unwrap();
+    let lines: Vec<&str> = original.lines().collect();
+    let first_row = lines.iter().position(|l| l.starts_with("0,")).unwrap();
+
+    // Unknown stimulus id (not in the set's manifest), in the middle of the file.
+    let mut bad: Vec<String> = lines.iter().map(|s| s.to_string()).collect();
+    bad[first_row + 2] = "2,0,2afc,M2-S2-T9-A3|M2-S2-T3-A3,M2-S2-T9-A3,,900,0,0,t".into();
+    std::fs::write(&log, bad.join("\n") + "\n").unwrap();
+    let line = format!("line {}", first_row + 3);
+    expect_error(std::slice::from_ref(&mono), Some(&set), &["session-1.csv", &line, "unknown stimulus id M2-S2-T9"]);
+
+    // Wrong column count in the middle of the file.
+    let mut bad: Vec<String> = lines.iter().map(|s| s.to_string()).collect();
+    bad[first_row + 1].push_str(",extra");
+    std::fs::write(&log, bad.join("\n") + "\n").unwrap();
+    let line = format!("line {}", first_row + 2);
+    expect_error(std::slice::from_ref(&mono), None, &["P00/session-1.csv", &line, "found 11 columns"]);
+    std::fs::write(&log, &original).unwrap();
+
+    // Mixed experiments in one folder.
+    let other = mono.join("P99/session-1.csv");
+    std::fs::create_dir_all(other.parent().unwrap()).unwrap();
+    std::fs::write(&other, original.replace("# experiment: mono-3-interactions", "# experiment: mono-1-broad"))
+        .unwrap();
+    expect_error(std::slice::from_ref(&mono), None, &["P99/session-1.csv", "line 2", "mixed experiments"]);
+
+    // Same experiment, different definition hash.
+    std::fs::write(
+        &other,
+        original
+            .replace("# experiment_sha256: sha-mono-3-interactions", "# experiment_sha256: other")
+            .replace("# participant: P00", "# participant: P99"),
+    )
+    .unwrap();
+    expect_error(std::slice::from_ref(&mono), None, &["P99/session-1.csv", "line 3", "`experiment_sha256` is `other`"]);
+
+    // Mixed views within one experiment.
+    let mut stereo_row: Vec<String> =
+        original.replace("# participant: P00", "# participant: P99").lines().map(str::to_owned).collect();
+    stereo_row[first_row + 4] = "4,0,2afc,M2-S2-T3-A3-stereo|M2-S2-T3-A4-stereo,M2-S2-T3-A4-stereo,,900,0,0,t".into();
+    std::fs::write(&other, stereo_row.join("\n") + "\n").unwrap();
+    expect_error(std::slice::from_ref(&mono), None, &["P99/session-1.csv", "mixed views"]);
+    std::fs::remove_file(&other).unwrap();
+
+    // A partial last row is reported, not counted.
+    std::fs::write(&log, original.replace("# completed: 2026-11-23T12:10:00.000Z\n", "") + "36,0,2afc,M2-S2").unwrap();
+    let report = build_report(&[mono], None, None, options()).unwrap();
+    assert!(
+        report.experiments[0].warnings.iter().any(|w| w.contains("partial last row")),
+        "{:?}",
+        report.experiments[0].warnings
+    );
+}
