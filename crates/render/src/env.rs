@@ -100,20 +100,30 @@ pub struct EnvSample {
 pub struct EnvironmentMap {
     width: u32,
     height: u32,
-    /// Radiance (already scaled by the lighting's intensity), row-major.
-    radiance: Vec<DVec3>,
+    /// Per pixel: radiance (already scaled by the lighting's intensity) and sampling
+    /// density over the unit square (weight / mean weight), together so one look-up
+    /// touches one cache line.
+    texels: Vec<Texel>,
     /// World-from-map rotation about +y: cosine and sine.
     rot_cos: f64,
     rot_sin: f64,
     /// Cumulative row weights, `height + 1` entries from 0 to 1.
     marginal_cdf: Vec<f64>,
+    /// Guide table of the marginal (see [`guide_table`]).
+    marginal_guide: Vec<u32>,
     /// Per row, cumulative pixel weights, `width + 1` entries from 0 to 1 (a uniform row
     /// where the row has no weight).
     conditional_cdf: Vec<f64>,
-    /// Density over the unit square (u, v) of each pixel: weight / mean weight.
-    pixel_density: Vec<f64>,
+    /// Per row, the guide table of its conditional, `width` entries.
+    conditional_guide: Vec<u32>,
     /// Whether any pixel has weight (a black map cannot be sampled).
     samplable: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Texel {
+    radiance: [f32; 3],
+    density: f32,
 }
 
 fn luminance(c: DVec3) -> f64 {
@@ -183,6 +193,11 @@ impl EnvironmentMap {
         let (wu, hu) = (w as usize, h as usize);
         // Weights are normalised by the largest luminance before summing so that huge
         // values (the sun in a real map) cannot overflow the sums.
+        if radiance.iter().any(|c| c.max_element() > f64::from(f32::MAX)) {
+            return Err(EnvError::Parameter(format!(
+                "{name}: radiance times intensity {intensity} exceeds the f32 range"
+            )));
+        }
         let max_lum = radiance.iter().map(|c| luminance(*c)).fold(0.0, f64::max);
         let scale = if max_lum > 0.0 { 1.0 / max_lum } else { 0.0 };
         let mut weights = vec![0.0; wu * hu];
@@ -199,7 +214,7 @@ impl EnvironmentMap {
         let samplable = total > 0.0 && total.is_finite();
         let mut marginal_cdf = vec![0.0; hu + 1];
         let mut conditional_cdf = vec![0.0; hu * (wu + 1)];
-        let mut pixel_density = vec![0.0; wu * hu];
+        let mut pixel_density = vec![0.0f64; wu * hu];
         for y in 0..hu {
             marginal_cdf[y + 1] =
                 if samplable { marginal_cdf[y] + row_sums[y] / total } else { (y + 1) as f64 / h as f64 };
@@ -220,15 +235,23 @@ impl EnvironmentMap {
             }
         }
         marginal_cdf[hu] = 1.0;
+        let marginal_guide = guide_table(&marginal_cdf);
+        let conditional_guide = conditional_cdf.chunks_exact(wu + 1).flat_map(guide_table).collect();
+        let texels = radiance
+            .iter()
+            .zip(&pixel_density)
+            .map(|(r, d)| Texel { radiance: [r.x as f32, r.y as f32, r.z as f32], density: *d as f32 })
+            .collect();
         Ok(EnvironmentMap {
             width: w,
             height: h,
-            radiance,
+            texels,
             rot_cos: rotation_y.cos(),
             rot_sin: rotation_y.sin(),
             marginal_cdf,
+            marginal_guide,
             conditional_cdf,
-            pixel_density,
+            conditional_guide,
             samplable,
         })
     }
@@ -283,7 +306,7 @@ impl EnvironmentMap {
             return DVec3::ZERO;
         }
         let (u, v) = self.uv(d);
-        self.radiance[self.pixel_of(u, v)]
+        texel_radiance(&self.texels[self.pixel_of(u, v)])
     }
 
     /// Density per unit solid angle with which [`EnvironmentMap::sample`] picks world
@@ -297,7 +320,7 @@ impl EnvironmentMap {
         if sin_theta <= 0.0 {
             return 0.0;
         }
-        self.pixel_density[self.pixel_of(u, v)] / (2.0 * PI * PI * sin_theta)
+        f64::from(self.texels[self.pixel_of(u, v)].density) / (2.0 * PI * PI * sin_theta)
     }
 
     /// Radiance and sampling density of a direction in one look-up.
@@ -306,11 +329,14 @@ impl EnvironmentMap {
             return (DVec3::ZERO, 0.0);
         }
         let (u, v) = self.uv(d);
-        let i = self.pixel_of(u, v);
+        let texel = &self.texels[self.pixel_of(u, v)];
         let sin_theta = (PI * v).sin();
-        let pdf =
-            if self.samplable && sin_theta > 0.0 { self.pixel_density[i] / (2.0 * PI * PI * sin_theta) } else { 0.0 };
-        (self.radiance[i], pdf)
+        let pdf = if self.samplable && sin_theta > 0.0 {
+            f64::from(texel.density) / (2.0 * PI * PI * sin_theta)
+        } else {
+            0.0
+        };
+        (texel_radiance(texel), pdf)
     }
 
     /// Picks a direction with density proportional to luminance x sin(theta) per pixel,
@@ -321,9 +347,9 @@ impl EnvironmentMap {
             return None;
         }
         let (w, h) = (self.width as usize, self.height as usize);
-        let (y, fy) = sample_cdf(&self.marginal_cdf, u[0]);
+        let (y, fy) = sample_cdf(&self.marginal_cdf, &self.marginal_guide, u[0]);
         let row = &self.conditional_cdf[y * (w + 1)..(y + 1) * (w + 1)];
-        let (x, fx) = sample_cdf(row, u[1]);
+        let (x, fx) = sample_cdf(row, &self.conditional_guide[y * w..(y + 1) * w], u[1]);
         let uu = (x as f64 + fx) / w as f64;
         let vv = (y as f64 + fy) / h as f64;
         let theta = PI * vv;
@@ -332,25 +358,50 @@ impl EnvironmentMap {
         if sin_theta <= 0.0 {
             return None;
         }
-        let density = self.pixel_density[y * w + x];
+        let texel = &self.texels[y * w + x];
+        let density = f64::from(texel.density);
         if density <= 0.0 {
             return None;
         }
         let m = DVec3::new(phi.sin() * sin_theta, theta.cos(), -phi.cos() * sin_theta);
         Some(EnvSample {
             direction: self.to_world(m),
-            radiance: self.radiance[y * w + x],
+            radiance: texel_radiance(texel),
             pdf: density / (2.0 * PI * PI * sin_theta),
         })
     }
 }
 
+fn texel_radiance(t: &Texel) -> DVec3 {
+    DVec3::new(f64::from(t.radiance[0]), f64::from(t.radiance[1]), f64::from(t.radiance[2]))
+}
+
+/// A guide table for inverting a cumulative distribution of `n + 1` entries: entry `k` is
+/// the interval holding `u = k / n`, so a search for `u` starts at most a few intervals
+/// before its answer (a binary search over a large map misses the cache at every step).
+fn guide_table(cdf: &[f64]) -> Vec<u32> {
+    let n = cdf.len() - 1;
+    let mut guide = Vec::with_capacity(n);
+    let mut i = 0;
+    for k in 0..n {
+        let u = k as f64 / n as f64;
+        while i + 1 < n && cdf[i + 1] <= u {
+            i += 1;
+        }
+        guide.push(i as u32);
+    }
+    guide
+}
+
 /// Inverts a cumulative distribution of `n + 1` entries: the chosen interval and the
 /// fractional position inside it. Intervals of zero width are never chosen.
-fn sample_cdf(cdf: &[f64], u: f64) -> (usize, f64) {
+fn sample_cdf(cdf: &[f64], guide: &[u32], u: f64) -> (usize, f64) {
     let n = cdf.len() - 1;
-    // First index i with cdf[i + 1] > u.
-    let i = cdf[1..].partition_point(|&c| c <= u).min(n - 1);
+    // First index i with cdf[i + 1] > u, scanning forward from the guide.
+    let mut i = guide[((u * n as f64) as usize).min(n - 1)] as usize;
+    while i + 1 < n && cdf[i + 1] <= u {
+        i += 1;
+    }
     let width = cdf[i + 1] - cdf[i];
     let f = if width > 0.0 { ((u - cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.5 };
     (i, f)
@@ -488,7 +539,7 @@ mod tests {
         let mut chi2 = 0.0;
         let mut dof = 0;
         for (i, &c) in counts.iter().enumerate() {
-            let expected = map.pixel_density[i] / (w * h) as f64 * n as f64;
+            let expected = f64::from(map.texels[i].density) / (w * h) as f64 * n as f64;
             if expected > 5.0 {
                 chi2 += (c - expected) * (c - expected) / expected;
                 dof += 1;
@@ -578,8 +629,7 @@ mod tests {
         std::fs::write(file("good.exr"), crate::io::encode_exr(&img).unwrap()).unwrap();
         let loaded = EnvironmentMap::from_lighting(&lighting(Environment::File { path: file("good.exr") })).unwrap();
         let direct = EnvironmentMap::from_image(&img, 1.0, 0.0, "x").unwrap();
-        assert_eq!(loaded.radiance, direct.radiance);
-        assert_eq!(loaded.pixel_density, direct.pixel_density);
+        assert_eq!(loaded.texels, direct.texels);
     }
 
     #[test]

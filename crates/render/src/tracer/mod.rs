@@ -11,6 +11,7 @@
 //! closed shutter or no motion samples no time dimension (the sphere is placed once), and
 //! a flat material evaluates no texture.
 
+pub mod bench;
 pub mod camera;
 pub mod integrator;
 pub mod intersect;
