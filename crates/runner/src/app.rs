@@ -1,0 +1,716 @@
+//! The participant's window: a thin egui layer over [`crate::session`],
+//! [`crate::playback`], [`crate::display`] and [`crate::calibration`].
+//!
+//! Screens: start (participant code, attributes, display check) -> briefing (text and
+//! labelled example sequences) -> for each trial: loading (frames decoded on worker threads
+//! with a progress bar, then uploaded as textures), presentation (sequences one after the
+//! other at their frame rate, paced by [`Playback`]), answer (keys or buttons, replay when
+//! allowed) -> breaks -> done. Escape asks before quitting; every answered trial is already
+//! synced to disk, so quitting loses only the trial on screen, which is shown again when the
+//! session resumes.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::thread::JoinHandle;
+
+use egui::{Color32, Key, RichText, TextureHandle, TextureOptions, Vec2};
+use study::StimulusId;
+use study::experiment::{DisplayMode, ExperimentDefinition};
+use study::response::Task;
+
+use crate::RunnerError;
+use crate::calibration::{Calibration, Viewing, calibrate};
+use crate::playback::{Playback, Screen};
+use crate::schedule::Trial;
+use crate::session::{Answer, Session, SessionOptions, check_participant};
+use crate::stimuli::{Decoded, StimulusSet, decode_sequence};
+
+/// What the window needs to run a session.
+#[derive(Clone, Debug)]
+pub struct AppConfig {
+    /// The experiment.
+    pub definition: ExperimentDefinition,
+    /// The stimulus set, already checked against the experiment.
+    pub set: StimulusSet,
+    /// Results root (`results/`).
+    pub results_dir: PathBuf,
+    /// Participant code to prefill.
+    pub participant: Option<String>,
+    /// Seed for a new session.
+    pub seed: Option<u64>,
+    /// Display mode (the definition's unless overridden).
+    pub display: DisplayMode,
+    /// Viewing geometry for calibration.
+    pub viewing: Viewing,
+    /// Display refresh rate assumed for pacing (Hz).
+    pub refresh_hz: f64,
+    /// Decoder threads.
+    pub decode_threads: usize,
+    /// Answer every trial with the first option as soon as it may be answered, and close
+    /// after this many trials (benchmarks and smoke tests of the real window).
+    pub autopilot: Option<usize>,
+}
+
+impl AppConfig {
+    /// A configuration with the definition's display mode, the thesis's viewing set-up,
+    /// 60 Hz and all cores for decoding.
+    pub fn new(definition: ExperimentDefinition, set: StimulusSet, results_dir: PathBuf) -> Self {
+        let display = definition.display;
+        AppConfig {
+            definition,
+            set,
+            results_dir,
+            participant: None,
+            seed: None,
+            display,
+            viewing: Viewing::default(),
+            refresh_hz: 60.0,
+            decode_threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
+            autopilot: None,
+        }
+    }
+
+    /// The calibration for this set's stimuli (all sequences of an experiment share a size).
+    pub fn calibration(&self) -> Result<Calibration, RunnerError> {
+        let eye = self
+            .set
+            .sequences
+            .values()
+            .next()
+            .map_or(640, |s| crate::display::eye_width(s.manifest.view, s.manifest.width));
+        calibrate(&self.viewing, eye, self.definition.presentation.visual_angle_deg)
+            .map_err(|message| RunnerError::Input { what: "display calibration".into(), message })
+    }
+
+    /// Display settings recorded in the log header.
+    pub fn display_json(&self) -> serde_json::Value {
+        let cal = self.calibration().ok();
+        serde_json::json!({
+            "mode": self.display.name(),
+            "screen_width_cm": self.viewing.screen_width_cm,
+            "screen_width_px": self.viewing.screen_width_px,
+            "distance_cm": self.viewing.distance_cm,
+            "refresh_hz": self.refresh_hz,
+            "scale": cal.as_ref().map(|c| c.scale),
+            "visual_angle_deg": cal.as_ref().map(|c| c.angle_deg),
+        })
+    }
+}
+
+/// Stimuli decoded and uploaded for one trial or example.
+struct Loaded {
+    textures: HashMap<StimulusId, Vec<TextureHandle>>,
+    fps: HashMap<StimulusId, f64>,
+    size: HashMap<StimulusId, [usize; 2]>,
+}
+
+struct LoadJob {
+    total: usize,
+    progress: Arc<AtomicUsize>,
+    handle: Option<JoinHandle<Result<Vec<Decoded>, RunnerError>>>,
+}
+
+enum Phase {
+    Start,
+    Briefing,
+    LoadingExample(usize, LoadJob),
+    Example { index: usize, loaded: Loaded, playback: Option<Playback> },
+    Loading(Trial, LoadJob),
+    Presenting(Box<Presenting>),
+    Break,
+    Done,
+    Closed,
+}
+
+struct Presenting {
+    trial: Trial,
+    loaded: Loaded,
+    playback: Option<Playback>,
+    replays: u32,
+}
+
+/// The eframe application.
+pub struct RunnerApp {
+    config: AppConfig,
+    calibration: Option<Calibration>,
+    phase: Phase,
+    session: Option<Session>,
+    code: String,
+    attributes: Vec<Option<usize>>,
+    confirm_quit: bool,
+    message: Option<String>,
+    /// Rows written by this window (for tests and the experimenter's summary).
+    pub written: Vec<study::response::TrialRow>,
+    /// Intervals (ms) between successive refreshes while a trial plays (frame-pacing benchmarks).
+    pub refresh_intervals_ms: Vec<f64>,
+    last_refresh: Option<f64>,
+}
+
+impl RunnerApp {
+    /// A window at its start screen.
+    pub fn new(config: AppConfig) -> Self {
+        let calibration = config.calibration().ok();
+        let code = config.participant.clone().unwrap_or_default();
+        let attributes = vec![None; config.definition.attributes.len()];
+        RunnerApp {
+            config,
+            calibration,
+            phase: Phase::Start,
+            session: None,
+            code,
+            attributes,
+            confirm_quit: false,
+            message: None,
+            written: Vec::new(),
+            refresh_intervals_ms: Vec::new(),
+            last_refresh: None,
+        }
+    }
+
+    /// The open session, once started.
+    pub fn session(&self) -> Option<&Session> {
+        self.session.as_ref()
+    }
+
+    /// The name of the current screen (`start`, `briefing`, `loading`, `presenting`,
+    /// `answer`, `break`, `done`, `closed`, `example`).
+    pub fn screen(&self) -> &'static str {
+        match &self.phase {
+            Phase::Start => "start",
+            Phase::Briefing => "briefing",
+            Phase::LoadingExample(..) | Phase::Loading(..) => "loading",
+            Phase::Example { .. } => "example",
+            Phase::Presenting(p) => {
+                if p.playback.as_ref().is_some_and(Playback::is_done) {
+                    "answer"
+                } else {
+                    "presenting"
+                }
+            }
+            Phase::Break => "break",
+            Phase::Done => "done",
+            Phase::Closed => "closed",
+        }
+    }
+
+    /// Whether the quit confirmation is showing.
+    pub fn confirming_quit(&self) -> bool {
+        self.confirm_quit
+    }
+
+    /// The last error or notice shown.
+    pub fn message(&self) -> Option<&str> {
+        self.message.as_deref()
+    }
+
+    fn start_session(&mut self) {
+        if let Err(e) = check_participant(self.code.trim()) {
+            self.message = Some(e.to_string());
+            return;
+        }
+        if let Some(i) = self.attributes.iter().position(Option::is_none) {
+            self.message = Some(format!("Please answer: {}", self.config.definition.attributes[i].question));
+            return;
+        }
+        let attributes = self
+            .config
+            .definition
+            .attributes
+            .iter()
+            .zip(&self.attributes)
+            .map(|(a, sel)| (a.key.clone(), a.options[sel.unwrap_or(0)].clone()))
+            .collect();
+        let options = SessionOptions { seed: self.config.seed, display: Some(self.config.display_json()), attributes };
+        match Session::open(
+            &self.config.definition,
+            &self.config.set,
+            &self.config.results_dir,
+            self.code.trim(),
+            &options,
+        ) {
+            Ok(session) => {
+                let mut notes = session.warnings.clone();
+                if session.resumed {
+                    notes.push(format!("Resuming session {} at trial {}.", session.number, session.next + 1));
+                }
+                self.message = (!notes.is_empty()).then(|| notes.join("\n"));
+                let finished = session.is_finished();
+                self.session = Some(session);
+                self.phase = if finished { Phase::Done } else { Phase::Briefing };
+            }
+            Err(e) => self.message = Some(e.to_string()),
+        }
+    }
+
+    fn load(&self, ids: &[StimulusId]) -> LoadJob {
+        let mut unique: Vec<StimulusId> = ids.to_vec();
+        unique.sort();
+        unique.dedup();
+        let sequences: Vec<_> = unique.iter().map(|id| self.config.set.sequence(id).clone()).collect();
+        let total = sequences.iter().map(|s| s.manifest.frames.len()).sum();
+        let progress = Arc::new(AtomicUsize::new(0));
+        let (mode, threads, counter) = (self.config.display, self.config.decode_threads, progress.clone());
+        let handle = std::thread::spawn(move || {
+            sequences.iter().map(|s| decode_sequence(s, mode, &counter, threads)).collect::<Result<Vec<_>, _>>()
+        });
+        LoadJob { total, progress, handle: Some(handle) }
+    }
+
+    fn next_trial(&mut self) {
+        let Some(session) = &self.session else { return };
+        match session.current().cloned() {
+            None => self.phase = Phase::Done,
+            Some(trial) => {
+                let job = self.load(&trial.shown);
+                self.phase = Phase::Loading(trial, job);
+            }
+        }
+    }
+
+    fn upload(ctx: &egui::Context, decoded: Vec<Decoded>, filter: TextureOptions) -> Loaded {
+        let mut loaded = Loaded { textures: HashMap::new(), fps: HashMap::new(), size: HashMap::new() };
+        for d in decoded {
+            let handles = d
+                .frames
+                .iter()
+                .enumerate()
+                .map(|(i, f)| {
+                    let image =
+                        egui::ColorImage::from_rgba_unmultiplied([f.width as usize, f.height as usize], &f.pixels);
+                    ctx.load_texture(format!("{}#{i}", d.id), image, filter)
+                })
+                .collect();
+            loaded.size.insert(d.id, d.frames.first().map_or([1, 1], |f| [f.width as usize, f.height as usize]));
+            loaded.fps.insert(d.id, d.fps);
+            loaded.textures.insert(d.id, handles);
+        }
+        loaded
+    }
+
+    fn answer(&mut self, slot: usize, now: f64) {
+        let Phase::Presenting(p) = &mut self.phase else { return };
+        let Some(playback) = &p.playback else { return };
+        let Some(end) = playback.finished_at else { return };
+        let answer = Answer {
+            slot,
+            response_ms: ((now - end).max(0.0) * 1000.0).round() as u64,
+            replays: p.replays,
+            dropped_frames: playback.dropped,
+            frames: playback.presented.clone(),
+        };
+        let Some(session) = &mut self.session else { return };
+        match session.record(&answer) {
+            Ok(row) => {
+                self.written.push(row);
+                if self.config.autopilot.is_some_and(|n| self.written.len() >= n) {
+                    self.phase = Phase::Closed;
+                } else if session.is_finished() {
+                    self.phase = Phase::Done;
+                } else if session.break_due() {
+                    self.phase = Phase::Break;
+                } else {
+                    self.next_trial();
+                }
+            }
+            Err(e) => self.message = Some(format!("Could not save the answer: {e}")),
+        }
+    }
+
+    fn key(&self, name: &str) -> Option<Key> {
+        Key::from_name(name)
+    }
+
+    fn draw_ui(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        let now = ui.input(|i| i.time);
+        if ui.input(|i| i.key_pressed(Key::Escape)) && !matches!(self.phase, Phase::Closed) {
+            self.confirm_quit = !self.confirm_quit;
+        }
+        if self.config.autopilot.is_some() {
+            match self.phase {
+                Phase::Start => self.start_session(),
+                Phase::Briefing | Phase::Break => self.next_trial(),
+                _ => {}
+            }
+        }
+        if self.confirm_quit {
+            ui.heading("Quit the experiment?");
+            ui.label("Every answer so far is saved. The trial on screen will be shown again when you resume.");
+            if let Some(s) = &self.session {
+                ui.label(format!("Saved in {}", s.path().display()));
+            }
+            ui.horizontal(|ui| {
+                if ui.button("Quit").clicked() {
+                    self.confirm_quit = false;
+                    self.phase = Phase::Closed;
+                    ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                }
+                if ui.button("Continue").clicked() {
+                    self.confirm_quit = false;
+                    if let Phase::Presenting(p) = &mut self.phase
+                        && let Some(pb) = &mut p.playback
+                        && !pb.is_done()
+                    {
+                        pb.restart(now);
+                    }
+                }
+            });
+            return;
+        }
+        if let Some(m) = &self.message {
+            ui.colored_label(Color32::from_rgb(230, 160, 60), m);
+        }
+        let filter = self.filter();
+        match &mut self.phase {
+            Phase::Start => self.start_screen(ui),
+            Phase::Briefing => self.briefing_screen(ui),
+            Phase::LoadingExample(index, job) => {
+                let index = *index;
+                if let Some(decoded) = Self::poll(ui, job, &mut self.message) {
+                    let loaded = Self::upload(&ctx, decoded, filter);
+                    self.phase = Phase::Example { index, loaded, playback: None };
+                }
+                ctx.request_repaint();
+            }
+            Phase::Example { .. } => self.example_screen(ui, now),
+            Phase::Loading(trial, job) => {
+                ui.label(format!("Preparing trial {}...", trial.index + 1));
+                if let Some(decoded) = Self::poll(ui, job, &mut self.message) {
+                    let loaded = Self::upload(&ctx, decoded, filter);
+                    let trial = trial.clone();
+                    self.phase = Phase::Presenting(Box::new(Presenting { trial, loaded, playback: None, replays: 0 }));
+                }
+                ctx.request_repaint();
+            }
+            Phase::Presenting(_) => self.trial_screen(ui, now),
+            Phase::Break => {
+                ui.heading("Take a break");
+                if let Some((done, total)) = self.session.as_ref().map(Session::counted_progress) {
+                    ui.label(format!("{done} of {total} trials done. Continue when you are ready."));
+                }
+                if ui.button("Continue").clicked() {
+                    self.next_trial();
+                }
+            }
+            Phase::Done => {
+                ui.heading("Thank you!");
+                ui.label("The session is complete and saved.");
+                if let Some(s) = &self.session {
+                    ui.label(format!("{}", s.path().display()));
+                }
+                if ui.button("Close").clicked() {
+                    self.phase = Phase::Closed;
+                    ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                }
+            }
+            Phase::Closed => {
+                ui.label("Closed.");
+                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            }
+        }
+    }
+
+    fn filter(&self) -> TextureOptions {
+        if self.calibration.as_ref().is_none_or(|c| c.integer) {
+            TextureOptions::NEAREST
+        } else {
+            TextureOptions::LINEAR
+        }
+    }
+
+    fn poll(ui: &mut egui::Ui, job: &mut LoadJob, message: &mut Option<String>) -> Option<Vec<Decoded>> {
+        let done = job.progress.load(Ordering::Relaxed);
+        ui.add(
+            egui::ProgressBar::new(done as f32 / job.total.max(1) as f32)
+                .text(format!("{done} / {} frames", job.total)),
+        );
+        if job.handle.as_ref().is_some_and(JoinHandle::is_finished) {
+            let handle = job.handle.take().expect("checked above");
+            match handle.join() {
+                Ok(Ok(decoded)) => return Some(decoded),
+                Ok(Err(e)) => *message = Some(e.to_string()),
+                Err(_) => *message = Some("the frame decoder crashed".into()),
+            }
+        }
+        None
+    }
+
+    fn start_screen(&mut self, ui: &mut egui::Ui) {
+        let d = &self.config.definition;
+        ui.heading(if d.title.is_empty() { d.name.as_str() } else { d.title.as_str() });
+        ui.horizontal(|ui| {
+            ui.label("Participant code");
+            ui.add(egui::TextEdit::singleline(&mut self.code).hint_text("e.g. P01"));
+        });
+        ui.small("Use the code you were given. Never type your name.");
+        for (a, sel) in d.attributes.iter().zip(self.attributes.iter_mut()) {
+            ui.label(&a.question);
+            ui.horizontal(|ui| {
+                for (i, option) in a.options.iter().enumerate() {
+                    ui.radio_value(sel, Some(i), option);
+                }
+            });
+        }
+        ui.separator();
+        ui.label(format!("Display mode: {}", self.config.display));
+        match &self.calibration {
+            Some(c) => {
+                let ppp = ui.ctx().pixels_per_point();
+                let v = &self.config.viewing;
+                ui.label(format!(
+                    "Calibration: scale {:.3}{} for {:.2} degrees at {} cm",
+                    c.scale,
+                    if c.integer { " (integer)" } else { "" },
+                    c.angle_deg,
+                    v.distance_cm
+                ));
+                if let Some(w) = &c.warning {
+                    ui.colored_label(Color32::YELLOW, format!("Warning: {w}"));
+                }
+                let cm = c.target_px * v.screen_width_cm / f64::from(v.screen_width_px);
+                ui.label(format!("Display check: this bar should measure {cm:.1} cm on the screen."));
+                let (rect, _) =
+                    ui.allocate_exact_size(Vec2::new((c.target_px as f32) / ppp, 12.0), egui::Sense::hover());
+                ui.painter().rect_filled(rect, 0.0, Color32::WHITE);
+            }
+            None => {
+                ui.colored_label(Color32::YELLOW, "Calibration failed: check the screen size and distance.");
+            }
+        }
+        ui.separator();
+        if ui.button("Start").clicked() || ui.input(|i| i.key_pressed(Key::Enter)) {
+            self.start_session();
+        }
+    }
+
+    fn briefing_screen(&mut self, ui: &mut egui::Ui) {
+        let d = &self.config.definition;
+        ui.heading("Briefing");
+        ui.label(d.briefing.text.trim());
+        let mut chosen = None;
+        for (i, e) in d.briefing.examples.iter().enumerate() {
+            ui.horizontal(|ui| {
+                if ui.button(format!("Show example: {}", e.label)).clicked() {
+                    chosen = Some(i);
+                }
+                ui.label(&e.description);
+            });
+        }
+        ui.label(RichText::new(&d.question).strong());
+        let practice = self.session.as_ref().and_then(Session::current).is_some_and(|t| t.practice);
+        if ui.button(if practice { "Begin practice" } else { "Begin" }).clicked() {
+            self.message = None;
+            self.next_trial();
+        } else if let Some(i) = chosen {
+            let id = self.config.definition.briefing.examples[i].stimulus;
+            let job = self.load(&[id]);
+            self.phase = Phase::LoadingExample(i, job);
+        }
+    }
+
+    fn example_screen(&mut self, ui: &mut egui::Ui, now: f64) {
+        let Phase::Example { index, loaded, playback } = &mut self.phase else { return };
+        let example = &self.config.definition.briefing.examples[*index];
+        let id = example.stimulus;
+        let (frames, fps) = (loaded.textures[&id].len(), loaded.fps[&id]);
+        let pb = playback.get_or_insert_with(|| Playback::single(frames, fps, 1, self.config.refresh_hz, now));
+        ui.heading(&example.label);
+        ui.label(&example.description);
+        let scale = self.calibration.as_ref().map_or(1.0, |c| c.scale) as f32 / ui.ctx().pixels_per_point();
+        let size = loaded.size[&id];
+        let size = Vec2::new(size[0] as f32, size[1] as f32) * scale;
+        match pb.update(now) {
+            Screen::Frame { frame, .. } => {
+                ui.image(egui::load::SizedTexture::new(loaded.textures[&id][frame].id(), size));
+                ui.ctx().request_repaint();
+            }
+            _ => {
+                blank(ui, size, "");
+            }
+        }
+        let mut back = false;
+        ui.horizontal(|ui| {
+            if ui.button("Play again").clicked() {
+                pb.restart(now);
+            }
+            back = ui.button("Back to the briefing").clicked();
+        });
+        if back {
+            self.phase = Phase::Briefing;
+        }
+    }
+
+    fn trial_screen(&mut self, ui: &mut egui::Ui, now: f64) {
+        let refresh = self.config.refresh_hz;
+        let pres = &self.config.definition.presentation;
+        let (loops, gap, replay_ok) = (pres.loops, pres.gap_ms, pres.replay);
+        let keys = self.config.definition.keys.clone();
+        let question = self.config.definition.question.clone();
+        let progress = self.session.as_ref().map(|s| s.counted_progress()).unwrap_or_default();
+        let scale = self.calibration.as_ref().map_or(1.0, |c| c.scale) as f32 / ui.ctx().pixels_per_point();
+        let Phase::Presenting(p) = &mut self.phase else { return };
+        let trial = p.trial.clone();
+        let loaded = &p.loaded;
+        let pb = p.playback.get_or_insert_with(|| {
+            let slots = trial.shown.iter().map(|id| (loaded.textures[id].len(), loaded.fps[id])).collect();
+            Playback::new(trial.task, slots, loops, gap, refresh, now)
+        });
+        let screen = pb.update(now);
+        if pb.is_done() {
+            self.last_refresh = None;
+        } else {
+            if let Some(prev) = self.last_refresh {
+                self.refresh_intervals_ms.push((now - prev) * 1000.0);
+            }
+            self.last_refresh = Some(now);
+            ui.ctx().request_repaint();
+        }
+        if trial.practice {
+            ui.label(RichText::new("Practice trial (not counted)").italics());
+        } else {
+            ui.label(format!("Trial {} of {}", progress.0 + 1, progress.1));
+        }
+        let size_of = |id: &StimulusId| {
+            let s = loaded.size[id];
+            Vec2::new(s[0] as f32, s[1] as f32) * scale
+        };
+        let labels: Vec<&str> = match trial.task {
+            Task::TwoAfc => vec!["Sequence 1", "Sequence 2"],
+            Task::Match => vec!["Reference", "Candidate A", "Candidate B"],
+        };
+        let draw_slot = |ui: &mut egui::Ui, slot: usize| {
+            let id = &trial.shown[slot];
+            ui.vertical(|ui| {
+                ui.label(labels[slot]);
+                match screen {
+                    Screen::Frame { slot: s, frame } if s == slot => {
+                        ui.image(egui::load::SizedTexture::new(loaded.textures[id][frame].id(), size_of(id)));
+                    }
+                    _ => blank(ui, size_of(id), ""),
+                }
+            });
+        };
+        match trial.task {
+            Task::TwoAfc => {
+                // One place on screen, labelled with the sequence playing (or last played).
+                let slot = match screen {
+                    Screen::Frame { slot, .. } => slot,
+                    Screen::Gap => 1,
+                    Screen::Done => 1,
+                };
+                draw_slot(ui, slot);
+            }
+            Task::Match => {
+                draw_slot(ui, 0);
+                ui.horizontal(|ui| {
+                    draw_slot(ui, 1);
+                    draw_slot(ui, 2);
+                });
+            }
+        }
+        if screen != Screen::Done {
+            return;
+        }
+        ui.label(RichText::new(&question).strong());
+        let (first, second) = match trial.task {
+            Task::TwoAfc => ("Sequence 1", "Sequence 2"),
+            Task::Match => ("Candidate A", "Candidate B"),
+        };
+        let mut choice = None;
+        let mut replay = false;
+        ui.horizontal(|ui| {
+            if ui.button(format!("{first} [{}]", keys.first)).clicked() {
+                choice = Some(0);
+            }
+            if ui.button(format!("{second} [{}]", keys.second)).clicked() {
+                choice = Some(1);
+            }
+            if replay_ok && ui.button(format!("Replay [{}]", keys.replay)).clicked() {
+                replay = true;
+            }
+        });
+        let pressed = |k: &str| self.key(k).is_some_and(|k| ui.input(|i| i.key_pressed(k)));
+        if pressed(&keys.first) {
+            choice = Some(0);
+        } else if pressed(&keys.second) {
+            choice = Some(1);
+        } else if replay_ok && pressed(&keys.replay) {
+            replay = true;
+        }
+        if self.config.autopilot.is_some() {
+            choice = Some(0);
+        }
+        if let Some(slot) = choice {
+            self.answer(slot, now);
+            ui.ctx().request_repaint();
+        } else if replay && let Phase::Presenting(p) = &mut self.phase {
+            p.replays += 1;
+            if let Some(pb) = &mut p.playback {
+                pb.restart(now);
+            }
+            ui.ctx().request_repaint();
+        }
+    }
+}
+
+fn blank(ui: &mut egui::Ui, size: Vec2, text: &str) {
+    let (rect, _) = ui.allocate_exact_size(size, egui::Sense::hover());
+    ui.painter().rect_filled(rect, 0.0, Color32::from_gray(40));
+    if !text.is_empty() {
+        ui.painter().text(rect.center(), egui::Align2::CENTER_CENTER, text, egui::FontId::default(), Color32::GRAY);
+    }
+}
+
+impl eframe::App for RunnerApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| self.draw_ui(ui));
+    }
+}
+
+/// Opens the participant's window and runs until it closes. Returns the rows written.
+pub fn run_window(config: AppConfig, fullscreen: bool) -> Result<RunnerApp, RunnerError> {
+    let title = format!("blurlab: {}", config.definition.name);
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title(title.clone())
+            .with_inner_size([1280.0, 800.0])
+            .with_fullscreen(fullscreen),
+        ..Default::default()
+    };
+    let shared: Arc<std::sync::Mutex<Option<RunnerApp>>> = Arc::new(std::sync::Mutex::new(None));
+    let out = shared.clone();
+    let app = RunnerApp::new(config);
+    eframe::run_native(
+        &title,
+        options,
+        Box::new(move |_cc| Ok(Box::new(Holder { app: Some(app), out }) as Box<dyn eframe::App>)),
+    )
+    .map_err(|e| RunnerError::Input { what: "window".into(), message: format!("cannot open the window: {e}") })?;
+    let app =
+        shared.lock().map_err(|_| RunnerError::Input { what: "window".into(), message: "state lost".into() })?.take();
+    app.ok_or_else(|| RunnerError::Input { what: "window".into(), message: "the window closed before starting".into() })
+}
+
+/// Hands the app back to [`run_window`] when eframe drops it.
+struct Holder {
+    app: Option<RunnerApp>,
+    out: Arc<std::sync::Mutex<Option<RunnerApp>>>,
+}
+
+impl eframe::App for Holder {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
+        if let Some(app) = &mut self.app {
+            eframe::App::ui(app, ui, frame);
+        }
+    }
+}
+
+impl Drop for Holder {
+    fn drop(&mut self) {
+        if let Ok(mut slot) = self.out.lock() {
+            *slot = self.app.take();
+        }
+    }
+}

@@ -1,0 +1,242 @@
+//! Measurements behind `blurlab bench playback`: decoding a sequence and uploading it as
+//! GPU textures (the same `create_texture` + `write_texture` per frame that egui-wgpu does
+//! for a new texture), memory held while a stereo 2AFC trial's stimuli are resident, and
+//! frame-interval statistics from a session's frame log.
+
+use std::path::Path;
+use std::sync::atomic::AtomicUsize;
+use std::time::Instant;
+
+use eframe::wgpu;
+use serde::Serialize;
+use study::experiment::DisplayMode;
+
+use crate::RunnerError;
+use crate::stimuli::{Decoded, Sequence, decode_sequence};
+
+/// A headless wgpu device for upload measurements.
+pub struct Gpu {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    /// Adapter name and backend.
+    pub adapter: String,
+}
+
+impl Gpu {
+    /// The default adapter (on machines without a GPU, Mesa's lavapipe when installed).
+    pub fn new() -> Result<Gpu, String> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+            .map_err(|e| format!("no wgpu adapter: {e}"))?;
+        let info = adapter.get_info();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+            .map_err(|e| format!("no wgpu device: {e}"))?;
+        Ok(Gpu { device, queue, adapter: format!("{} ({:?})", info.name, info.backend) })
+    }
+
+    /// Uploads every frame as its own sRGB texture and waits for the queue; returns the textures.
+    pub fn upload(&self, decoded: &Decoded) -> Vec<wgpu::Texture> {
+        let textures = decoded
+            .frames
+            .iter()
+            .map(|f| {
+                let size = wgpu::Extent3d { width: f.width, height: f.height, depth_or_array_layers: 1 };
+                let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("frame"),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba8UnormSrgb,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                    view_formats: &[],
+                });
+                self.queue.write_texture(
+                    wgpu::TexelCopyTextureInfo {
+                        texture: &texture,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d::ZERO,
+                        aspect: wgpu::TextureAspect::All,
+                    },
+                    &f.pixels,
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(4 * f.width),
+                        rows_per_image: Some(f.height),
+                    },
+                    size,
+                );
+                texture
+            })
+            .collect();
+        self.queue.submit([]);
+        let _ = self.device.poll(wgpu::PollType::Wait { submission_index: None, timeout: None });
+        textures
+    }
+}
+
+/// Timing of one sequence's decode and upload.
+#[derive(Clone, Debug, Serialize)]
+pub struct DecodeUpload {
+    /// The stimulus.
+    pub id: String,
+    /// Frames.
+    pub frames: usize,
+    /// Decoded frame size (after the display transform).
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// Decoder threads.
+    pub threads: usize,
+    /// Milliseconds to decode and transform all frames.
+    pub decode_ms: f64,
+    /// Milliseconds to upload all frames (None without an adapter).
+    pub upload_ms: Option<f64>,
+    /// Bytes of decoded pixels.
+    pub bytes: usize,
+}
+
+/// Decodes (and uploads, given a device) one sequence, timing both.
+pub fn decode_upload(
+    sequence: &Sequence,
+    mode: DisplayMode,
+    threads: usize,
+    gpu: Option<&Gpu>,
+) -> Result<DecodeUpload, RunnerError> {
+    let progress = AtomicUsize::new(0);
+    let t = Instant::now();
+    let decoded = decode_sequence(sequence, mode, &progress, threads)?;
+    let decode_ms = t.elapsed().as_secs_f64() * 1e3;
+    let upload_ms = gpu.map(|g| {
+        let t = Instant::now();
+        let textures = g.upload(&decoded);
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        drop(textures);
+        ms
+    });
+    let first = &decoded.frames[0];
+    Ok(DecodeUpload {
+        id: decoded.id.to_string(),
+        frames: decoded.frames.len(),
+        width: first.width,
+        height: first.height,
+        threads,
+        decode_ms,
+        upload_ms,
+        bytes: decoded.bytes(),
+    })
+}
+
+/// Resident and peak resident memory of this process in KiB (Linux `/proc/self/status`).
+pub fn memory_kib() -> Option<(u64, u64)> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let field =
+        |name: &str| status.lines().find(|l| l.starts_with(name))?.split_whitespace().nth(1)?.parse::<u64>().ok();
+    Some((field("VmRSS:")?, field("VmHWM:")?))
+}
+
+/// Memory held while a stereo 2AFC trial's two sequences are decoded and uploaded.
+#[derive(Clone, Debug, Serialize)]
+pub struct TrialMemory {
+    /// Display mode used.
+    pub mode: String,
+    /// Bytes of decoded pixels of both sequences (the CPU copies the window frees after upload).
+    pub decoded_bytes: usize,
+    /// Bytes of texture data on the GPU (one RGBA8 texel per pixel).
+    pub texture_bytes: usize,
+    /// Resident memory before loading, KiB.
+    pub rss_before_kib: u64,
+    /// Resident memory with both sequences decoded and uploaded, KiB.
+    pub rss_loaded_kib: u64,
+    /// Resident memory after the CPU copies are dropped (textures kept), KiB.
+    pub rss_textures_only_kib: u64,
+}
+
+/// Loads two sequences as a stereo 2AFC trial does and reports memory.
+pub fn trial_memory(
+    a: &Sequence,
+    b: &Sequence,
+    mode: DisplayMode,
+    threads: usize,
+    gpu: Option<&Gpu>,
+) -> Result<TrialMemory, RunnerError> {
+    let before = memory_kib().map_or(0, |m| m.0);
+    let progress = AtomicUsize::new(0);
+    let da = decode_sequence(a, mode, &progress, threads)?;
+    let db = decode_sequence(b, mode, &progress, threads)?;
+    let textures: Vec<_> = gpu.map(|g| [g.upload(&da), g.upload(&db)]).into_iter().collect();
+    let loaded = memory_kib().map_or(0, |m| m.0);
+    let decoded_bytes = da.bytes() + db.bytes();
+    drop((da, db));
+    let textures_only = memory_kib().map_or(0, |m| m.0);
+    drop(textures);
+    Ok(TrialMemory {
+        mode: mode.name().into(),
+        decoded_bytes,
+        texture_bytes: if gpu.is_some() { decoded_bytes } else { 0 },
+        rss_before_kib: before,
+        rss_loaded_kib: loaded,
+        rss_textures_only_kib: textures_only,
+    })
+}
+
+/// Frame-interval statistics of a session's frame log.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameStats {
+    /// Frames presented.
+    pub frames: usize,
+    /// Frames late or skipped (sum of `dropped_frames` over the session's rows).
+    pub dropped: u64,
+    /// Frames flagged late in the frame log.
+    pub late: usize,
+    /// Mean interval between successive frames of a sequence, ms.
+    pub mean_interval_ms: f64,
+    /// Standard deviation of the intervals, ms.
+    pub sd_interval_ms: f64,
+    /// Largest interval, ms.
+    pub max_interval_ms: f64,
+    /// Expected interval (1000 / fps), ms.
+    pub expected_interval_ms: f64,
+}
+
+/// Reads `session-N.frames.tsv` and the session's rows and computes frame statistics.
+pub fn frame_stats(csv: &Path, fps: f64) -> Result<FrameStats, RunnerError> {
+    let frames_path = csv.with_extension("frames.tsv");
+    let text = std::fs::read_to_string(&frames_path)
+        .map_err(|source| RunnerError::Io { path: frames_path.clone(), source })?;
+    let mut intervals = Vec::new();
+    let mut last: Option<(String, String, f64)> = None;
+    let (mut frames, mut late) = (0, 0);
+    for line in text.lines().skip(1) {
+        let cols: Vec<&str> = line.split('\t').collect();
+        if cols.len() != 6 {
+            continue;
+        }
+        let shown: f64 = cols[4].parse().unwrap_or(f64::NAN);
+        frames += 1;
+        late += usize::from(cols[5] == "1");
+        if let Some((t, s, prev)) = &last
+            && t == cols[0]
+            && s == cols[1]
+            && shown > *prev
+        {
+            intervals.push(shown - prev);
+        }
+        last = Some((cols[0].to_owned(), cols[1].to_owned(), shown));
+    }
+    let log = study::response::SessionLog::read(csv)?;
+    let dropped = log.rows.iter().map(|(_, r)| u64::from(r.dropped_frames)).sum();
+    let n = intervals.len().max(1) as f64;
+    let mean = intervals.iter().sum::<f64>() / n;
+    let sd = (intervals.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
+    let max = intervals.iter().copied().fold(0.0, f64::max);
+    Ok(FrameStats {
+        frames,
+        dropped,
+        late,
+        mean_interval_ms: mean,
+        sd_interval_ms: sd,
+        max_interval_ms: max,
+        expected_interval_ms: 1000.0 / fps,
+    })
+}

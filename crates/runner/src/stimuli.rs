@@ -1,0 +1,324 @@
+//! The rendered stimulus set as the runner sees it: `index.json`, the manifests of the
+//! sequences an experiment shows, and their frames decoded to display pixels.
+//!
+//! [`StimulusSet::open_for`] checks, before the first trial, that every stimulus the
+//! experiment shows (trials, practice, briefing examples) is in the set's index, that its
+//! manifest reads, is the stimulus the index says and lists frames, and that every frame
+//! file exists; errors name what is missing.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use study::experiment::{DisplayMode, ExperimentDefinition};
+use study::manifest::{SequenceManifest, SetIndex};
+use study::{StimulusId, View};
+
+use crate::RunnerError;
+use crate::display::{Rgba8, transform};
+
+/// A stimulus set opened for one experiment.
+#[derive(Clone, Debug)]
+pub struct StimulusSet {
+    /// The set's folder.
+    pub dir: PathBuf,
+    /// The parsed index.
+    pub index: SetIndex,
+    /// SHA-256 of index.json (recorded in every log header).
+    pub sha256: String,
+    /// Manifests of the sequences the experiment shows.
+    pub sequences: BTreeMap<StimulusId, Sequence>,
+}
+
+/// One sequence of the set.
+#[derive(Clone, Debug)]
+pub struct Sequence {
+    /// Its folder.
+    pub folder: PathBuf,
+    /// Its manifest.
+    pub manifest: SequenceManifest,
+}
+
+impl Sequence {
+    /// Paths of its frame PNGs in order.
+    pub fn frame_paths(&self) -> Vec<PathBuf> {
+        self.manifest.frames.iter().map(|f| self.folder.join(&f.png)).collect()
+    }
+}
+
+impl StimulusSet {
+    /// Opens `dir` and checks it holds everything `definition` shows.
+    pub fn open_for(dir: &Path, definition: &ExperimentDefinition) -> Result<Self, RunnerError> {
+        let index_path = dir.join("index.json");
+        let bytes = std::fs::read(&index_path)
+            .map_err(|source| study::manifest::ManifestError::Io { path: index_path.clone(), source })?;
+        let index = SetIndex::read(&index_path)?;
+        let sha256 = study::fsio::sha256_hex(&bytes);
+        let listed: BTreeMap<StimulusId, &str> = index.sequences.iter().map(|e| (e.id, e.folder.as_str())).collect();
+        let wanted = definition.all_stimuli();
+        let missing: Vec<StimulusId> = wanted.iter().filter(|id| !listed.contains_key(id)).copied().collect();
+        if !missing.is_empty() {
+            return Err(RunnerError::MissingStimuli { set: index_path, experiment: definition.path.clone(), missing });
+        }
+        let mut sequences = BTreeMap::new();
+        for id in wanted {
+            let folder = dir.join(listed[&id]);
+            let path = folder.join("manifest.json");
+            let manifest = SequenceManifest::read(&path)?;
+            let bad = |message: String| RunnerError::Sequence { path: path.clone(), message };
+            if manifest.id != id {
+                return Err(bad(format!("field `id` is {}, but index.json lists this folder as {id}", manifest.id)));
+            }
+            if manifest.frames.is_empty() {
+                return Err(bad("field `frames` is empty".into()));
+            }
+            if !(manifest.fps.is_finite() && manifest.fps > 0.0) {
+                return Err(bad(format!("field `fps` is {}, expected a positive rate", manifest.fps)));
+            }
+            if manifest.view == View::Stereo && manifest.width % 2 != 0 {
+                return Err(bad(format!(
+                    "field `width` is {}: a side-by-side stereo frame needs an even width",
+                    manifest.width
+                )));
+            }
+            for frame in &manifest.frames {
+                let png = folder.join(&frame.png);
+                if !png.is_file() {
+                    return Err(bad(format!("frame {} file {} is missing", frame.index, png.display())));
+                }
+            }
+            sequences.insert(id, Sequence { folder, manifest });
+        }
+        Ok(StimulusSet { dir: dir.to_owned(), index, sha256, sequences })
+    }
+
+    /// The sequence of a stimulus checked by [`StimulusSet::open_for`].
+    pub fn sequence(&self, id: &StimulusId) -> &Sequence {
+        &self.sequences[id]
+    }
+}
+
+/// A sequence decoded and transformed for display.
+#[derive(Clone, Debug)]
+pub struct Decoded {
+    /// The stimulus.
+    pub id: StimulusId,
+    /// Playback rate.
+    pub fps: f64,
+    /// Width of one eye's image in source pixels (what calibration scales).
+    pub eye_width: u32,
+    /// Display frames in order.
+    pub frames: Vec<Rgba8>,
+}
+
+impl Decoded {
+    /// Bytes held by the frames.
+    pub fn bytes(&self) -> usize {
+        self.frames.iter().map(|f| f.pixels.len()).sum()
+    }
+}
+
+/// Decodes one PNG frame to RGBA8, checking its size against the manifest.
+pub fn decode_frame(path: &Path, width: u32, height: u32) -> Result<Rgba8, RunnerError> {
+    let bad = |message: String| RunnerError::Sequence { path: path.to_owned(), message };
+    let img = image::open(path).map_err(|e| bad(format!("cannot decode PNG: {e}")))?.to_rgba8();
+    if img.width() != width || img.height() != height {
+        return Err(bad(format!("frame is {}x{}, the manifest says {width}x{height}", img.width(), img.height())));
+    }
+    Ok(Rgba8 { width, height, pixels: img.into_raw() })
+}
+
+/// Decodes every frame of `sequence` and applies the display mode, counting decoded frames
+/// in `progress`. Frames are decoded on up to `threads` threads.
+pub fn decode_sequence(
+    sequence: &Sequence,
+    mode: DisplayMode,
+    progress: &AtomicUsize,
+    threads: usize,
+) -> Result<Decoded, RunnerError> {
+    let m = &sequence.manifest;
+    let paths = sequence.frame_paths();
+    let threads = threads.clamp(1, paths.len().max(1));
+    let chunk = paths.len().div_ceil(threads);
+    let results: Vec<Result<Vec<Rgba8>, RunnerError>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = paths
+            .chunks(chunk)
+            .map(|part| {
+                scope.spawn(move || {
+                    part.iter()
+                        .map(|p| {
+                            let frame = decode_frame(p, m.width, m.height)?;
+                            let shown = transform(mode, m.view, &frame);
+                            progress.fetch_add(1, Ordering::Relaxed);
+                            Ok(shown)
+                        })
+                        .collect::<Result<Vec<Rgba8>, RunnerError>>()
+                })
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().expect("decoder thread panicked")).collect()
+    });
+    let mut frames = Vec::with_capacity(paths.len());
+    for part in results {
+        frames.extend(part?);
+    }
+    Ok(Decoded { id: m.id, fps: m.fps, eye_width: crate::display::eye_width(m.view, m.width), frames })
+}
+
+/// Writes a small synthetic stimulus set (for tests, benchmarks and demos without the
+/// renderer): for each id, `frames` PNG frames of `width x height` (stereo: `2*width`) whose
+/// content is a bright bar moving across a grey field, shaded by the id's levels, with
+/// manifests and index.json in the documented formats.
+pub fn write_synthetic_set(
+    dir: &Path,
+    ids: &[StimulusId],
+    width: u32,
+    height: u32,
+    frames: u32,
+    fps: f64,
+) -> Result<(), RunnerError> {
+    use study::manifest::{
+        Factors, FrameRecord, INDEX_FORMAT, IndexEntry, LevelInfo, SEQUENCE_FORMAT, SequenceManifest,
+    };
+    let io = |path: &Path| {
+        let path = path.to_owned();
+        move |source| RunnerError::Io { path, source }
+    };
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let mut ids: Vec<StimulusId> = ids.to_vec();
+    ids.sort();
+    ids.dedup();
+    let mut entries = Vec::new();
+    for id in &ids {
+        let folder_name = id.to_string();
+        let folder = dir.join(&folder_name);
+        std::fs::create_dir_all(&folder).map_err(io(&folder))?;
+        let full_w = if id.view == View::Stereo { 2 * width } else { width };
+        let mut records = Vec::new();
+        for f in 0..frames {
+            let mut img = image::RgbaImage::from_pixel(full_w, height, image::Rgba([60, 60, 60, 255]));
+            let eyes = if id.view == View::Stereo { 2 } else { 1 };
+            for eye in 0..eyes {
+                let bar_x = (f * width / frames.max(1) + eye * 2) % width.max(1);
+                let shade = (80 + 30 * u32::from(id.material) + 20 * u32::from(id.shutter)).min(255) as u8;
+                for y in height / 4..(3 * height / 4).max(height / 4 + 1).min(height) {
+                    for x in bar_x..(bar_x + (width / 8).max(1)).min(width) {
+                        let noise = ((x * 7 + y * 13 + f * 31) % (6 - u32::from(id.samples.min(5)) + 1)) as u8 * 8;
+                        img.put_pixel(eye * width + x, y, image::Rgba([shade, shade.saturating_sub(noise), 200, 255]));
+                    }
+                }
+            }
+            let name = format!("frame-{f:04}.png");
+            let path = folder.join(&name);
+            let mut bytes = Vec::new();
+            image::DynamicImage::ImageRgba8(img)
+                .to_rgb8()
+                .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
+                .map_err(|e| RunnerError::Sequence { path: path.clone(), message: e.to_string() })?;
+            study::fsio::write_atomic(&path, &bytes).map_err(io(&path))?;
+            records.push(FrameRecord {
+                index: f,
+                png: name,
+                png_sha256: study::fsio::sha256_hex(&bytes),
+                exr: None,
+                exr_sha256: None,
+                wall_seconds: 0.01 * f64::from(id.samples),
+                cpu_seconds: 0.02 * f64::from(id.samples),
+                nonfinite_samples: 0,
+                seeds: vec![u64::from(f)],
+            });
+        }
+        let level = |label: String, value: f64| LevelInfo { name: label.clone(), label, value };
+        let manifest = SequenceManifest {
+            format: SEQUENCE_FORMAT.into(),
+            id: *id,
+            view: id.view,
+            factors: Factors {
+                material: level(id.level_label(study::Factor::Material), f64::from(id.material)),
+                speed: level(id.level_label(study::Factor::Speed), 5.0 * f64::from(id.speed)),
+                shutter: level(id.level_label(study::Factor::Shutter), 0.25 * f64::from(id.shutter - 1)),
+                samples: level(id.level_label(study::Factor::Samples), f64::from(id.samples)),
+            },
+            method: "synthetic".into(),
+            preset: "test".into(),
+            width: full_w,
+            height,
+            fps,
+            samples_per_pixel: u32::from(id.samples),
+            master_seed: 0,
+            device: "synthetic".into(),
+            software_version: study::SOFTWARE_VERSION.into(),
+            design_sha256: String::new(),
+            frames: records,
+        };
+        let text = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
+        let path = folder.join("manifest.json");
+        study::fsio::write_atomic(&path, text.as_bytes()).map_err(io(&path))?;
+        entries.push(IndexEntry {
+            id: *id,
+            folder: folder_name,
+            manifest_sha256: study::fsio::sha256_hex(text.as_bytes()),
+        });
+    }
+    let index = SetIndex {
+        format: INDEX_FORMAT.into(),
+        design: "synthetic".into(),
+        design_sha256: String::new(),
+        preset: "test".into(),
+        sequences: entries,
+    };
+    let path = dir.join("index.json");
+    let text = serde_json::to_string_pretty(&index).expect("index serialises");
+    study::fsio::write_atomic(&path, text.as_bytes()).map_err(io(&path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn missing_stimuli_and_frames_are_named_before_the_first_trial() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = crate::schedule::tests::definition("2afc", 1);
+        // All but two of the stimuli (the practice pair needs M2-S2-T1-A1 and T5-A5 too).
+        let ids: Vec<StimulusId> =
+            d.all_stimuli().into_iter().filter(|id| id.shutter != 3 && id.shutter != 4).collect();
+        write_synthetic_set(dir.path(), &ids, 8, 4, 3, 30.0).unwrap();
+        let e = StimulusSet::open_for(dir.path(), &d).unwrap_err().to_string();
+        assert!(
+            e.contains("index.json: the stimulus set lacks 2 stimuli that t.toml shows: M2-S2-T3-A5, M2-S2-T4-A5"),
+            "{e}"
+        );
+
+        let all: Vec<StimulusId> = d.all_stimuli().into_iter().collect();
+        write_synthetic_set(dir.path(), &all, 8, 4, 3, 30.0).unwrap();
+        let set = StimulusSet::open_for(dir.path(), &d).unwrap();
+        assert_eq!(set.sequences.len(), 6);
+        let seq = set.sequence(&all[0]);
+        let progress = AtomicUsize::new(0);
+        let decoded = decode_sequence(seq, DisplayMode::Mono, &progress, 2).unwrap();
+        assert_eq!((decoded.frames.len(), progress.load(Ordering::Relaxed)), (3, 3));
+        assert_eq!((decoded.frames[0].width, decoded.frames[0].height, decoded.eye_width), (8, 4, 8));
+
+        std::fs::remove_file(dir.path().join("M2-S2-T4-A5/frame-0002.png")).unwrap();
+        let e = StimulusSet::open_for(dir.path(), &d).unwrap_err().to_string();
+        assert!(e.contains("M2-S2-T4-A5/manifest.json: frame 2 file") && e.contains("is missing"), "{e}");
+    }
+
+    #[test]
+    fn stereo_frames_are_transformed_and_sizes_checked() {
+        let dir = tempfile::tempdir().unwrap();
+        let id: StimulusId = "M2-S2-T3-A5-stereo".parse().unwrap();
+        write_synthetic_set(dir.path(), &[id], 8, 4, 2, 30.0).unwrap();
+        let folder = dir.path().join(id.to_string());
+        let manifest = SequenceManifest::read(&folder.join("manifest.json")).unwrap();
+        let seq = Sequence { folder: folder.clone(), manifest };
+        let progress = AtomicUsize::new(0);
+        let d = decode_sequence(&seq, DisplayMode::Anaglyph, &progress, 1).unwrap();
+        assert_eq!((d.frames[0].width, d.frames[0].height, d.eye_width), (8, 4, 8));
+        let mut wrong = seq.clone();
+        wrong.manifest.height = 5;
+        let e = decode_sequence(&wrong, DisplayMode::SbsFull, &progress, 1).unwrap_err().to_string();
+        assert!(e.contains("frame-0000.png: frame is 16x4, the manifest says 16x5"), "{e}");
+    }
+}

@@ -1,0 +1,261 @@
+//! UI tests of the participant's window with egui_kittest: a scripted participant enters a
+//! code and attributes, watches a briefing example, plays a practice trial, answers 2AFC and
+//! matching trials by key and by button, replays, quits with Escape and resumes; the
+//! assertions read the session CSV.
+//!
+//! The window logic runs headless (no GPU). The step that renders a trial's textures through
+//! wgpu needs an adapter: with `BLURLAB_REQUIRE_GPU=1` a missing adapter fails the test,
+//! otherwise that step is skipped with a message.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use egui::Key;
+use egui::accesskit::Role;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use runner::app::{AppConfig, RunnerApp};
+use runner::stimuli::{StimulusSet, write_synthetic_set};
+use study::StimulusId;
+use study::experiment::ExperimentDefinition;
+use study::response::SessionLog;
+
+fn definition(dir: &Path, task: &str) -> ExperimentDefinition {
+    let text = format!(
+        r#"format = "blurlab-experiment/1"
+name = "ui-{task}"
+task = "{task}"
+question = "Which one?"
+view = "mono"
+[stimuli]
+material = [2]
+speed = [2]
+shutter = [3, 4, 5]
+samples = [5]
+[briefing]
+text = "Watch for noise."
+[[briefing.examples]]
+label = "Noise"
+description = "grain"
+stimulus = "M2-S2-T3-A1"
+[[practice]]
+pair = ["M2-S2-T1-A1", "M2-S2-T5-A5"]
+[presentation]
+gap_ms = 100
+replay = true
+[[attributes]]
+key = "cg_experience"
+question = "Experience in computer graphics?"
+options = ["yes", "no"]
+"#
+    );
+    let path = dir.join(format!("ui-{task}.toml"));
+    std::fs::write(&path, &text).unwrap();
+    ExperimentDefinition::read(&path).unwrap()
+}
+
+fn config(dir: &Path, task: &str) -> AppConfig {
+    let d = definition(dir, task);
+    let ids: Vec<StimulusId> = d.all_stimuli().into_iter().collect();
+    let set_dir = dir.join("set");
+    write_synthetic_set(&set_dir, &ids, 16, 8, 3, 30.0).unwrap();
+    let set = StimulusSet::open_for(&set_dir, &d).unwrap();
+    let mut c = AppConfig::new(d, set, dir.join("results"));
+    c.seed = Some(5);
+    c.decode_threads = 1;
+    c
+}
+
+fn harness(config: AppConfig) -> Harness<'static, RunnerApp> {
+    Harness::builder()
+        .with_size([900.0, 700.0])
+        .with_step_dt(1.0 / 60.0)
+        .build_eframe(move |_cc| RunnerApp::new(config))
+}
+
+/// Steps until the window shows `screen` (loading runs on real threads, so steps also wait).
+fn until(h: &mut Harness<'static, RunnerApp>, screen: &str) {
+    let start = Instant::now();
+    while h.state().screen() != screen {
+        assert!(
+            start.elapsed() < Duration::from_secs(20),
+            "stuck on `{}` waiting for `{screen}`: {:?}",
+            h.state().screen(),
+            h.state().message()
+        );
+        h.step();
+        if h.state().screen() == "loading" {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+}
+
+fn start(h: &mut Harness<'static, RunnerApp>, code: &str) {
+    let field = h.get_by_role(Role::TextInput);
+    field.focus();
+    h.step();
+    h.get_by_role(Role::TextInput).type_text(code);
+    h.step();
+    h.get_by_label("Start").click();
+    h.step();
+    // The attribute is required.
+    assert!(h.state().message().unwrap().contains("Please answer: Experience in computer graphics?"));
+    assert_eq!(h.state().screen(), "start");
+    h.get_by_label("no").click();
+    h.step();
+    h.get_by_label("Start").click();
+    h.step();
+}
+
+fn rows(path: &Path) -> Vec<study::response::TrialRow> {
+    SessionLog::read(path).unwrap().rows.into_iter().map(|(_, r)| r).collect()
+}
+
+fn require_gpu() -> bool {
+    std::env::var("BLURLAB_REQUIRE_GPU").is_ok_and(|v| v == "1")
+}
+
+#[test]
+fn scripted_participant_2afc_practice_replay_quit_and_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = config(dir.path(), "2afc");
+    let mut h = harness(cfg.clone());
+    assert_eq!(h.state().screen(), "start");
+    // A name is refused.
+    h.get_by_role(Role::TextInput).focus();
+    h.step();
+    h.get_by_role(Role::TextInput).type_text("Jane Doe");
+    h.step();
+    h.get_by_label("Start").click();
+    h.step();
+    assert!(h.state().message().unwrap().contains("pseudonymous"), "{:?}", h.state().message());
+    drop(h);
+
+    let mut h = harness(cfg.clone());
+    start(&mut h, "P07");
+    assert_eq!(h.state().screen(), "briefing");
+    let path: PathBuf = h.state().session().unwrap().path().to_owned();
+    assert!(path.ends_with("results/ui-2afc/P07/session-1.csv"));
+
+    // Briefing example.
+    h.get_by_label("Show example: Noise").click();
+    until(&mut h, "example");
+    h.step();
+    h.get_by_label("Back to the briefing").click();
+    until(&mut h, "briefing");
+    h.get_by_label("Begin practice").click();
+
+    // Practice trial: presentation, then answer by key.
+    until(&mut h, "presenting");
+    assert!(h.query_by_label("Practice trial (not counted)").is_some());
+    // Rendering the textures of a trial through wgpu (GPU or lavapipe).
+    match h.render() {
+        Ok(image) => assert!(image.width() > 0),
+        Err(e) if !require_gpu() => {
+            eprintln!("skipped: rendering the trial through wgpu ({e}); set BLURLAB_REQUIRE_GPU=1 to require it")
+        }
+        Err(e) => panic!("BLURLAB_REQUIRE_GPU=1 but rendering failed: {e}"),
+    }
+    until(&mut h, "answer");
+    h.key_press(Key::Num1);
+    h.step();
+
+    // Trial 1: replay by button, then answer sequence 2 by button.
+    until(&mut h, "answer");
+    h.get_by_label("Replay [R]").click();
+    h.step();
+    assert_eq!(h.state().screen(), "presenting");
+    until(&mut h, "answer");
+    h.get_by_label("Sequence 2 [2]").click();
+    h.step();
+
+    // Trial 2: replay by key, answer sequence 1 by button.
+    until(&mut h, "answer");
+    h.key_press(Key::R);
+    h.step();
+    until(&mut h, "answer");
+    h.get_by_label("Sequence 1 [1]").click();
+    h.step();
+
+    // Trial 3 on screen: Escape asks, Continue resumes, Escape + Quit closes.
+    until(&mut h, "presenting");
+    h.key_press(Key::Escape);
+    h.step();
+    assert!(h.state().confirming_quit());
+    h.get_by_label("Continue").click();
+    h.step();
+    assert!(!h.state().confirming_quit());
+    h.key_press(Key::Escape);
+    h.step();
+    h.get_by_label("Quit").click();
+    h.step();
+    assert_eq!(h.state().screen(), "closed");
+    let schedule = h.state().session().unwrap().schedule.clone();
+    drop(h);
+
+    let log = SessionLog::read(&path).unwrap();
+    assert!(!log.completed);
+    assert_eq!(log.header.get("attributes"), Some(r#"{"cg_experience":"no"}"#));
+    assert!(log.header.get("display").unwrap().contains(r#""mode":"mono""#));
+    let r = rows(&path);
+    assert_eq!(r.len(), 3);
+    assert!(r[0].practice && !r[1].practice);
+    assert_eq!((r[0].choice, r[0].replays), (r[0].shown[0], 0));
+    assert_eq!((r[1].choice, r[1].replays), (r[1].shown[1], 1));
+    assert_eq!((r[2].choice, r[2].replays), (r[2].shown[0], 1));
+    for (row, trial) in r.iter().zip(&schedule) {
+        assert_eq!(row.shown, trial.shown);
+        assert_eq!(row.dropped_frames, 0, "paced at the harness's 60 Hz steps");
+        assert_eq!(row.correct, None);
+    }
+    // Every presented frame was logged: 3 frames per sequence, 2 sequences, replays doubled.
+    let frames = std::fs::read_to_string(path.with_extension("frames.tsv")).unwrap();
+    assert_eq!(frames.lines().count(), 1 + 6 + 12 + 12);
+
+    // Resume: same code, continues at trial 3 in the same order, then runs to the end.
+    let mut h = harness(cfg);
+    start(&mut h, "P07");
+    assert!(h.state().message().unwrap().contains("Resuming session 1 at trial 4"), "{:?}", h.state().message());
+    assert_eq!(h.state().session().unwrap().next, 3);
+    h.get_by_label("Begin").click();
+    while h.state().screen() != "done" {
+        until(&mut h, "answer");
+        h.key_press(Key::Num2);
+        h.step();
+        h.step();
+    }
+    let log = SessionLog::read(&path).unwrap();
+    assert!(log.completed);
+    let r = rows(&path);
+    assert_eq!(r.len(), schedule.len());
+    assert!(r.iter().zip(&schedule).all(|(row, t)| row.shown == t.shown && row.trial == t.index));
+    assert!(r[3..].iter().all(|row| row.choice == row.shown[1]));
+}
+
+#[test]
+fn scripted_participant_matching_by_key_and_button() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(config(dir.path(), "match"));
+    start(&mut h, "M01");
+    h.get_by_label("Begin practice").click();
+    until(&mut h, "presenting");
+    assert!(h.query_by_label("Reference").is_some() && h.query_by_label("Candidate B").is_some());
+    until(&mut h, "answer");
+    h.get_by_label("Candidate B [2]").click();
+    h.step();
+    until(&mut h, "answer");
+    h.key_press(Key::Num1);
+    h.step();
+    until(&mut h, "answer");
+    let path = h.state().session().unwrap().path().to_owned();
+    drop(h);
+    let r = rows(&path);
+    assert_eq!(r.len(), 2);
+    for (row, slot) in r.iter().zip([1, 0]) {
+        assert_eq!(row.shown.len(), 3);
+        assert_eq!(row.choice, row.shown[1 + slot]);
+        assert_eq!(row.correct, Some(row.choice == row.shown[0]));
+    }
+    // The practice reference is the first of the practice pair.
+    assert_eq!(r[0].shown[0].to_string(), "M2-S2-T1-A1");
+}
