@@ -675,7 +675,7 @@ pub fn run_window(config: AppConfig, fullscreen: bool) -> Result<RunnerApp, Runn
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_title(title.clone())
-            .with_inner_size([1280.0, 800.0])
+            .with_inner_size([1400.0, 1000.0])
             .with_fullscreen(fullscreen),
         ..Default::default()
     };

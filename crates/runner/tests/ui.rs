@@ -68,7 +68,7 @@ fn config(dir: &Path, task: &str) -> AppConfig {
 
 fn harness(config: AppConfig) -> Harness<'static, RunnerApp> {
     Harness::builder()
-        .with_size([900.0, 700.0])
+        .with_size([1400.0, 1100.0])
         .with_step_dt(1.0 / 60.0)
         .build_eframe(move |_cc| RunnerApp::new(config))
 }
@@ -88,6 +88,8 @@ fn until(h: &mut Harness<'static, RunnerApp>, screen: &str) {
             std::thread::sleep(Duration::from_millis(2));
         }
     }
+    // The screen changed during the last step: one more draws it for the accessibility tree.
+    h.step();
 }
 
 fn start(h: &mut Harness<'static, RunnerApp>, code: &str) {
@@ -101,10 +103,12 @@ fn start(h: &mut Harness<'static, RunnerApp>, code: &str) {
     // The attribute is required.
     assert!(h.state().message().unwrap().contains("Please answer: Experience in computer graphics?"));
     assert_eq!(h.state().screen(), "start");
+    // The notice shifts the layout: let it settle before clicking by position.
+    h.run_steps(2);
     h.get_by_label("no").click();
-    h.step();
+    h.run_steps(2);
     h.get_by_label("Start").click();
-    h.step();
+    h.run_steps(2);
 }
 
 fn rows(path: &Path) -> Vec<study::response::TrialRow> {
@@ -133,7 +137,7 @@ fn scripted_participant_2afc_practice_replay_quit_and_resume() {
 
     let mut h = harness(cfg.clone());
     start(&mut h, "P07");
-    assert_eq!(h.state().screen(), "briefing");
+    assert_eq!(h.state().screen(), "briefing", "{:?}", h.state().message());
     let path: PathBuf = h.state().session().unwrap().path().to_owned();
     assert!(path.ends_with("results/ui-2afc/P07/session-1.csv"));
 
@@ -150,7 +154,11 @@ fn scripted_participant_2afc_practice_replay_quit_and_resume() {
     assert!(h.query_by_label("Practice trial (not counted)").is_some());
     // Rendering the textures of a trial through wgpu (GPU or lavapipe).
     match h.render() {
-        Ok(image) => assert!(image.width() > 0),
+        Ok(image) => {
+            // The synthetic frame's grey field (60, 60, 60) is on screen, scaled up.
+            let grey = image.pixels().filter(|p| p.0[..3].iter().all(|&c| c.abs_diff(60) <= 1)).count();
+            assert!(grey > 10_000, "{grey} stimulus pixels rendered");
+        }
         Err(e) if !require_gpu() => {
             eprintln!("skipped: rendering the trial through wgpu ({e}); set BLURLAB_REQUIRE_GPU=1 to require it")
         }
