@@ -1,1 +1,612 @@
-//! Rendering whole stimulus sets: sequence folders, manifests, index, resume, progress.
+//! Rendering whole stimulus sets: one folder of frames per sequence, its `manifest.json`,
+//! the set's `index.json`, resume, and progress display.
+//!
+//! Crash safety: every file is written atomically; a sequence's frames come first and its
+//! manifest last, so a manifest exists only for a sequence whose frames are all on disk; the
+//! index is rewritten after each sequence and lists only sequences whose manifest it has
+//! hashed. Before a sequence is re-rendered it leaves the index and loses its manifest, so
+//! a kill at any moment leaves no incomplete sequence marked complete. `--resume` trusts a
+//! sequence only when its manifest matches the request and every frame's hash verifies.
+
+use std::io::{self, IsTerminal, Write as _};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+use study::design::{Design, DesignError, Preset};
+use study::fsio::{sha256_file, sha256_hex, write_atomic};
+use study::manifest::{
+    FrameRecord, INDEX_FORMAT, IndexEntry, ManifestError, SEQUENCE_FORMAT, SequenceManifest, SetIndex,
+};
+use study::scene::FrameScene;
+use study::{SOFTWARE_VERSION, StimulusId};
+
+use crate::env::{EnvError, EnvironmentMap};
+use crate::io::{IoError, LinearImage, compose_side_by_side, encode_exr, encode_png_srgb};
+use crate::tracer::render_frame;
+
+/// The rendering method recorded in manifests by this module.
+pub const METHOD: &str = "tracer";
+
+/// Why a set could not be rendered.
+#[derive(Debug, thiserror::Error)]
+pub enum SetError {
+    /// The design does not fit the request.
+    #[error(transparent)]
+    Design(#[from] DesignError),
+    /// The environment map could not be built.
+    #[error(transparent)]
+    Environment(#[from] EnvError),
+    /// A file or folder could not be written, read or removed.
+    #[error("{}: {action}: {source}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// What was being done.
+        action: &'static str,
+        /// Cause (its kind tells a full disk or a permission problem).
+        source: io::Error,
+    },
+    /// An image could not be encoded.
+    #[error("{}: cannot encode: {source}", path.display())]
+    Encode {
+        /// The file being produced.
+        path: PathBuf,
+        /// Cause.
+        source: IoError,
+    },
+    /// The output folder holds a set that this request must not mix with.
+    #[error("{}: {message}", path.display())]
+    Mismatch {
+        /// The conflicting file.
+        path: PathBuf,
+        /// What differs.
+        message: String,
+    },
+}
+
+impl SetError {
+    /// Whether the error comes from the user's input (design, environment map, output
+    /// folder holding another set) rather than from writing.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(self, SetError::Design(_) | SetError::Environment(_) | SetError::Mismatch { .. })
+    }
+}
+
+/// Where files go. The default writes atomically; tests substitute failing writers.
+pub trait FileWriter: Sync {
+    /// Writes `bytes` to `path`, replacing it atomically.
+    fn write(&self, path: &Path, bytes: &[u8]) -> io::Result<()>;
+}
+
+/// Writes with [`study::fsio::write_atomic`].
+pub struct AtomicWriter;
+
+impl FileWriter for AtomicWriter {
+    fn write(&self, path: &Path, bytes: &[u8]) -> io::Result<()> {
+        write_atomic(path, bytes)
+    }
+}
+
+/// How progress is shown on stderr.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProgressMode {
+    /// Bars (overall with ETA, and the current sequence) on a terminal, lines otherwise.
+    Auto,
+    /// One line per finished sequence.
+    Lines,
+    /// Nothing.
+    Quiet,
+}
+
+/// What to render and where.
+pub struct SetRequest<'a> {
+    /// The design.
+    pub design: &'a Design,
+    /// The resolved preset.
+    pub preset: Preset,
+    /// Sequences to render, in order.
+    pub ids: Vec<StimulusId>,
+    /// The set's folder.
+    pub out: PathBuf,
+    /// Skip sequences that verify.
+    pub resume: bool,
+    /// Also write linear EXR frames.
+    pub exr: bool,
+    /// Progress display.
+    pub progress: ProgressMode,
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SetReport {
+    /// Sequences rendered by this run.
+    pub rendered: Vec<StimulusId>,
+    /// Sequences skipped because they verified (`--resume`).
+    pub skipped: Vec<StimulusId>,
+    /// Non-finite samples discarded in this run.
+    pub nonfinite_samples: u64,
+    /// Wall seconds of this run.
+    pub wall_seconds: f64,
+}
+
+/// The file name of frame `index`.
+pub fn frame_name(index: u32, extension: &str) -> String {
+    format!("frame-{index:04}.{extension}")
+}
+
+/// A description of the machine for manifests.
+pub fn device_name() -> String {
+    format!("cpu: {} threads", rayon::current_num_threads())
+}
+
+/// CPU seconds used by this process so far (user + system, all threads), from
+/// `/proc/self/stat`; `None` where that is not available.
+pub fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = fields.get(11)?.parse().ok()?;
+    let stime: f64 = fields.get(12)?.parse().ok()?;
+    // Linux reports these in USER_HZ, which is 100 on every mainstream platform.
+    Some((utime + stime) / 100.0)
+}
+
+/// Renders one frame and composes its eyes side by side (left eye left).
+pub fn render_composed(scene: &FrameScene, env: &EnvironmentMap) -> (LinearImage, u64) {
+    let output = render_frame(scene, env);
+    let image = if output.eyes.len() == 1 {
+        output.eyes.into_iter().next().unwrap_or_else(|| LinearImage::new(0, 0))
+    } else {
+        compose_side_by_side(&output.eyes)
+    };
+    (image, output.nonfinite_samples)
+}
+
+fn io_err<'a>(path: &'a Path, action: &'static str) -> impl FnOnce(io::Error) -> SetError + 'a {
+    move |source| SetError::Io { path: path.to_owned(), action, source }
+}
+
+/// Camera samples of one frame of `id`: the unit of the overall progress bar, since render
+/// time grows linearly with it.
+fn frame_cost(preset: &Preset, id: &StimulusId) -> u64 {
+    let eyes = study::Eye::of_view(id.view).len() as u64;
+    let spp = u64::from(preset.samples_per_pixel[usize::from(id.samples - 1)]);
+    u64::from(preset.width) * u64::from(preset.height) * eyes * spp
+}
+
+struct Progress {
+    mode: ProgressMode,
+    multi: Option<MultiProgress>,
+    overall: Option<ProgressBar>,
+    total_sequences: usize,
+}
+
+impl Progress {
+    fn new(mode: ProgressMode, total_cost: u64, total_sequences: usize) -> Self {
+        let mode = match mode {
+            ProgressMode::Auto if io::stderr().is_terminal() => ProgressMode::Auto,
+            ProgressMode::Auto => ProgressMode::Lines,
+            m => m,
+        };
+        if mode != ProgressMode::Auto {
+            return Progress { mode, multi: None, overall: None, total_sequences };
+        }
+        let multi = MultiProgress::with_draw_target(ProgressDrawTarget::stderr());
+        let overall = multi.add(ProgressBar::new(total_cost.max(1)));
+        overall.set_style(
+            ProgressStyle::with_template(
+                "{prefix:>9} [{elapsed_precise}] {wide_bar} {percent:>3}% ETA {eta_precise} {msg}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        overall.set_prefix("set");
+        overall.set_message(format!("0/{total_sequences} sequences"));
+        overall.enable_steady_tick(Duration::from_millis(500));
+        Progress { mode, multi: Some(multi), overall: Some(overall), total_sequences }
+    }
+
+    fn sequence_bar(&self, id: &StimulusId, frames: u32) -> Option<ProgressBar> {
+        let multi = self.multi.as_ref()?;
+        let bar = multi.add(ProgressBar::new(u64::from(frames)));
+        bar.set_style(
+            ProgressStyle::with_template("{prefix:>9} {wide_bar} frame {pos}/{len} {per_sec} ETA {eta}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar.set_prefix(id.to_string());
+        Some(bar)
+    }
+
+    fn advance(&self, cost: u64) {
+        if let Some(o) = &self.overall {
+            o.inc(cost);
+        }
+    }
+
+    fn finished(&self, done: usize, id: &StimulusId, what: &str, seconds: f64) {
+        let line = format!("[{done}/{}] {id}: {what} ({seconds:.1} s)", self.total_sequences);
+        match self.mode {
+            ProgressMode::Quiet => {}
+            ProgressMode::Lines => {
+                let _ = writeln!(io::stderr(), "{line}");
+            }
+            ProgressMode::Auto => {
+                if let Some(o) = &self.overall {
+                    o.set_message(format!("{done}/{} sequences", self.total_sequences));
+                    o.println(line);
+                }
+            }
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(o) = &self.overall {
+            o.finish_and_clear();
+        }
+    }
+}
+
+/// Renders the requested sequences with the CPU tracer, writing through [`AtomicWriter`].
+pub fn render_set(request: &SetRequest<'_>) -> Result<SetReport, SetError> {
+    render_set_with(request, &AtomicWriter)
+}
+
+/// Renders the requested sequences, writing every file through `writer`.
+pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Result<SetReport, SetError> {
+    let started = Instant::now();
+    let design = request.design;
+    let preset = &request.preset;
+    for id in &request.ids {
+        design.check_id(id)?;
+    }
+    let out = &request.out;
+    std::fs::create_dir_all(out).map_err(io_err(out, "cannot create the output folder"))?;
+    let index_path = out.join("index.json");
+    let mut index = load_index(&index_path, design, preset)?;
+    // Writing the index first finds an unwritable folder before any rendering.
+    write_index(writer, &index_path, &mut index)?;
+    let env = EnvironmentMap::from_lighting(&design.lighting)?;
+
+    let total_cost: u64 = request.ids.iter().map(|id| frame_cost(preset, id) * u64::from(preset.frames)).sum();
+    let progress = Progress::new(request.progress, total_cost, request.ids.len());
+    let mut report = SetReport::default();
+    let result = (|| {
+        for (n, id) in request.ids.iter().enumerate() {
+            let seq_started = Instant::now();
+            let folder = out.join(id.to_string());
+            let manifest_path = folder.join("manifest.json");
+            if request.resume
+                && let Some(manifest_sha) = verify_sequence(&folder, design, preset, id, request.exr)
+            {
+                upsert(&mut index, id, &manifest_sha);
+                write_index(writer, &index_path, &mut index)?;
+                progress.advance(frame_cost(preset, id) * u64::from(preset.frames));
+                report.skipped.push(*id);
+                progress.finished(n + 1, id, "verified, skipped", seq_started.elapsed().as_secs_f64());
+                continue;
+            }
+            // Un-mark the sequence before touching its files.
+            if index.sequences.iter().any(|e| e.id == *id) {
+                index.sequences.retain(|e| e.id != *id);
+                write_index(writer, &index_path, &mut index)?;
+            }
+            match std::fs::remove_file(&manifest_path) {
+                Err(e) if e.kind() != io::ErrorKind::NotFound => {
+                    return Err(SetError::Io {
+                        path: manifest_path,
+                        action: "cannot remove the old manifest",
+                        source: e,
+                    });
+                }
+                _ => {}
+            }
+            std::fs::create_dir_all(&folder).map_err(io_err(&folder, "cannot create the sequence folder"))?;
+            remove_temporaries(&folder);
+            let bar = progress.sequence_bar(id, preset.frames);
+            let manifest = render_sequence(design, preset, id, &folder, &env, request.exr, writer, |cost| {
+                progress.advance(cost);
+                if let Some(b) = &bar {
+                    b.inc(1);
+                }
+            })?;
+            if let Some(b) = bar {
+                b.finish_and_clear();
+            }
+            let bytes = manifest_bytes(&manifest);
+            writer.write(&manifest_path, &bytes).map_err(io_err(&manifest_path, "cannot write"))?;
+            upsert(&mut index, id, &sha256_hex(&bytes));
+            write_index(writer, &index_path, &mut index)?;
+            report.nonfinite_samples += manifest.nonfinite_samples();
+            report.rendered.push(*id);
+            progress.finished(n + 1, id, "rendered", seq_started.elapsed().as_secs_f64());
+        }
+        Ok(())
+    })();
+    progress.finish();
+    result?;
+    report.wall_seconds = started.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn render_sequence(
+    design: &Design,
+    preset: &Preset,
+    id: &StimulusId,
+    folder: &Path,
+    env: &EnvironmentMap,
+    exr: bool,
+    writer: &dyn FileWriter,
+    mut on_frame: impl FnMut(u64),
+) -> Result<SequenceManifest, SetError> {
+    let mut frames = Vec::with_capacity(preset.frames as usize);
+    let mut size = (0, 0);
+    for frame in 0..preset.frames {
+        let scene = design.frame_scene_with(preset, id, frame)?;
+        let wall0 = Instant::now();
+        let cpu0 = process_cpu_seconds();
+        let (image, nonfinite) = render_composed(&scene, env);
+        let wall_seconds = wall0.elapsed().as_secs_f64();
+        let cpu_seconds = match (cpu0, process_cpu_seconds()) {
+            (Some(a), Some(b)) => (b - a).max(0.0),
+            _ => 0.0,
+        };
+        size = (image.width, image.height);
+        let png_name = frame_name(frame, "png");
+        let png_path = folder.join(&png_name);
+        let png = encode_png_srgb(&image, &scene.exposure);
+        writer.write(&png_path, &png).map_err(io_err(&png_path, "cannot write"))?;
+        let (exr_name, exr_sha256) = if exr {
+            let name = frame_name(frame, "exr");
+            let path = folder.join(&name);
+            let bytes = encode_exr(&image).map_err(|source| SetError::Encode { path: path.clone(), source })?;
+            writer.write(&path, &bytes).map_err(io_err(&path, "cannot write"))?;
+            (Some(name), Some(sha256_hex(&bytes)))
+        } else {
+            (None, None)
+        };
+        frames.push(FrameRecord {
+            index: frame,
+            png: png_name,
+            png_sha256: sha256_hex(&png),
+            exr: exr_name,
+            exr_sha256,
+            wall_seconds,
+            cpu_seconds,
+            nonfinite_samples: nonfinite,
+            seeds: scene.views.iter().map(|v| v.seed).collect(),
+        });
+        on_frame(frame_cost(preset, id));
+    }
+    Ok(SequenceManifest {
+        format: SEQUENCE_FORMAT.to_owned(),
+        id: *id,
+        view: id.view,
+        factors: design.factors(id, preset)?,
+        method: METHOD.to_owned(),
+        preset: preset.name.clone(),
+        width: size.0,
+        height: size.1,
+        fps: design.spec.sequence.fps,
+        samples_per_pixel: preset.samples_per_pixel[usize::from(id.samples - 1)],
+        master_seed: design.spec.master_seed,
+        device: device_name(),
+        software_version: SOFTWARE_VERSION.to_owned(),
+        design_sha256: design.sha256.clone(),
+        frames,
+    })
+}
+
+fn manifest_bytes(manifest: &SequenceManifest) -> Vec<u8> {
+    let mut bytes = serde_json::to_vec_pretty(manifest).unwrap_or_default();
+    bytes.push(b'\n');
+    bytes
+}
+
+/// Removes temporary files a killed write left behind (`.NAME.tmp-PID`).
+fn remove_temporaries(folder: &Path) {
+    if let Ok(entries) = std::fs::read_dir(folder) {
+        for entry in entries.flatten() {
+            let name = entry.file_name();
+            let name = name.to_string_lossy();
+            if name.starts_with('.') && name.contains(".tmp-") {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+}
+
+fn upsert(index: &mut SetIndex, id: &StimulusId, manifest_sha256: &str) {
+    index.sequences.retain(|e| e.id != *id);
+    index.sequences.push(IndexEntry { id: *id, folder: id.to_string(), manifest_sha256: manifest_sha256.to_owned() });
+}
+
+fn write_index(writer: &dyn FileWriter, path: &Path, index: &mut SetIndex) -> Result<(), SetError> {
+    index.sequences.sort_by_key(|e| e.id);
+    let mut bytes = serde_json::to_vec_pretty(index).unwrap_or_default();
+    bytes.push(b'\n');
+    writer.write(path, &bytes).map_err(io_err(path, "cannot write the set index"))
+}
+
+/// The index to continue from: the existing one (when it belongs to this design and preset)
+/// keeping only entries whose manifest still hashes as recorded and was rendered from this
+/// design file; a new empty one otherwise.
+fn load_index(path: &Path, design: &Design, preset: &Preset) -> Result<SetIndex, SetError> {
+    let fresh = SetIndex {
+        format: INDEX_FORMAT.to_owned(),
+        design: design.name().to_owned(),
+        design_sha256: design.sha256.clone(),
+        preset: preset.name.clone(),
+        sequences: Vec::new(),
+    };
+    if !path.exists() {
+        return Ok(fresh);
+    }
+    let old = match SetIndex::read(path) {
+        Ok(old) => old,
+        Err(ManifestError::Io { source, .. }) => {
+            return Err(SetError::Io { path: path.to_owned(), action: "cannot read the set index", source });
+        }
+        Err(e) => {
+            return Err(SetError::Mismatch {
+                path: path.to_owned(),
+                message: format!("not a readable set index ({e}); remove it or render into another folder"),
+            });
+        }
+    };
+    if old.design != fresh.design || old.preset != fresh.preset {
+        return Err(SetError::Mismatch {
+            path: path.to_owned(),
+            message: format!(
+                "this folder holds design `{}` rendered with preset `{}`, not design `{}` with preset `{}`; render into another folder",
+                old.design, old.preset, fresh.design, fresh.preset
+            ),
+        });
+    }
+    let root = path.parent().unwrap_or(Path::new("."));
+    let sequences = old
+        .sequences
+        .into_iter()
+        .filter(|e| {
+            let manifest_path = root.join(&e.folder).join("manifest.json");
+            sha256_file(&manifest_path).is_ok_and(|h| h == e.manifest_sha256)
+                && SequenceManifest::read(&manifest_path).is_ok_and(|m| m.design_sha256 == design.sha256)
+        })
+        .collect();
+    Ok(SetIndex { sequences, ..fresh })
+}
+
+/// Whether `folder` holds a complete rendering of `id` as this request would produce it;
+/// returns the manifest's hash when it does.
+pub fn verify_sequence(folder: &Path, design: &Design, preset: &Preset, id: &StimulusId, exr: bool) -> Option<String> {
+    let manifest_path = folder.join("manifest.json");
+    let bytes = std::fs::read(&manifest_path).ok()?;
+    let m = SequenceManifest::read(&manifest_path).ok()?;
+    let spp = preset.samples_per_pixel[usize::from(id.samples - 1)];
+    let eyes = study::Eye::of_view(id.view).len() as u32;
+    let matches = m.id == *id
+        && m.method == METHOD
+        && m.preset == preset.name
+        && m.design_sha256 == design.sha256
+        && m.samples_per_pixel == spp
+        && m.width == preset.width * eyes
+        && m.height == preset.height
+        && m.frames.len() == preset.frames as usize
+        && m.frames.iter().enumerate().all(|(i, f)| f.index as usize == i);
+    if !matches {
+        return None;
+    }
+    for f in &m.frames {
+        if sha256_file(&folder.join(&f.png)).ok()? != f.png_sha256 {
+            return None;
+        }
+        match (&f.exr, &f.exr_sha256) {
+            (Some(name), Some(hash)) => {
+                if sha256_file(&folder.join(name)).ok()? != *hash {
+                    return None;
+                }
+            }
+            _ if exr => return None,
+            _ => {}
+        }
+    }
+    Some(sha256_hex(&bytes))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    use super::*;
+
+    fn design() -> Design {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml");
+        Design::load(&path).unwrap()
+    }
+
+    /// A disk that fills up after `room` successful writes.
+    struct FillingDisk {
+        room: usize,
+        writes: AtomicUsize,
+    }
+
+    impl FileWriter for FillingDisk {
+        fn write(&self, path: &Path, bytes: &[u8]) -> io::Result<()> {
+            if self.writes.fetch_add(1, Ordering::SeqCst) >= self.room {
+                return Err(io::Error::new(io::ErrorKind::StorageFull, "No space left on device (injected)"));
+            }
+            write_atomic(path, bytes)
+        }
+    }
+
+    fn request<'a>(design: &'a Design, out: &Path, only: &[&str]) -> SetRequest<'a> {
+        let mut preset = design.preset("quick").unwrap();
+        preset.frames = 2;
+        preset.width = 16;
+        preset.height = 9;
+        SetRequest {
+            design,
+            preset,
+            ids: only.iter().map(|s| s.parse().unwrap()).collect(),
+            out: out.to_owned(),
+            resume: false,
+            exr: true,
+            progress: ProgressMode::Quiet,
+        }
+    }
+
+    #[test]
+    fn a_full_disk_is_reported_with_the_file_and_keeps_finished_sequences() {
+        let d = design();
+        let dir = tempfile::tempdir().unwrap();
+        let ids = ["M1-S1-T1-A1", "M1-S1-T1-A2"];
+        // index, 2 frames x (png + exr), manifest, index: 7 writes finish the first sequence.
+        let disk = FillingDisk { room: 8, writes: AtomicUsize::new(0) };
+        let e = render_set_with(&request(&d, dir.path(), &ids), &disk).unwrap_err();
+        let SetError::Io { path, source, .. } = &e else { panic!("{e}") };
+        assert_eq!(source.kind(), io::ErrorKind::StorageFull);
+        assert!(path.starts_with(dir.path().join("M1-S1-T1-A2")), "{e}");
+        assert!(e.to_string().contains("frame-0000"), "{e}");
+        let index = SetIndex::read(&dir.path().join("index.json")).unwrap();
+        assert_eq!(index.sequences.len(), 1);
+        let req = request(&d, dir.path(), &ids);
+        assert!(
+            verify_sequence(&dir.path().join("M1-S1-T1-A1"), &d, &req.preset, &index.sequences[0].id, true).is_some()
+        );
+        assert!(
+            verify_sequence(&dir.path().join("M1-S1-T1-A2"), &d, &req.preset, &"M1-S1-T1-A2".parse().unwrap(), true)
+                .is_none()
+        );
+    }
+
+    #[test]
+    fn resume_skips_verified_sequences_and_rerenders_damaged_ones() {
+        let d = design();
+        let dir = tempfile::tempdir().unwrap();
+        let ids = ["M2-S3-T5-A1", "M2-S3-T5-A1-stereo"];
+        let first = render_set(&request(&d, dir.path(), &ids)).unwrap();
+        assert_eq!(first.rendered.len(), 2);
+        let manifest = SequenceManifest::read(&dir.path().join("M2-S3-T5-A1-stereo/manifest.json")).unwrap();
+        assert_eq!((manifest.width, manifest.height), (32, 9));
+        assert!(manifest.frames.iter().all(|f| f.exr.is_some()));
+        std::fs::write(dir.path().join("M2-S3-T5-A1/frame-0001.exr"), b"damaged").unwrap();
+        let mut again = request(&d, dir.path(), &ids);
+        again.resume = true;
+        let second = render_set(&again).unwrap();
+        assert_eq!(second.skipped, vec!["M2-S3-T5-A1-stereo".parse().unwrap()]);
+        assert_eq!(second.rendered, vec!["M2-S3-T5-A1".parse().unwrap()]);
+        let redone = SequenceManifest::read(&dir.path().join("M2-S3-T5-A1/manifest.json")).unwrap();
+        let before = SequenceManifest::read(&dir.path().join("M2-S3-T5-A1-stereo/manifest.json")).unwrap();
+        assert_eq!(before, manifest);
+        assert_eq!(
+            redone.frames[1].exr_sha256,
+            Some(sha256_file(&dir.path().join("M2-S3-T5-A1/frame-0001.exr")).unwrap())
+        );
+        // Another preset may not be mixed into the folder.
+        let mut other = request(&d, dir.path(), &ids);
+        other.preset.name = "full".into();
+        let e = render_set(&other).unwrap_err();
+        assert!(e.is_bad_input() && e.to_string().contains("preset `quick`"), "{e}");
+    }
+}

@@ -1,10 +1,334 @@
-//! `blurlab stimuli` (not built yet).
+//! `blurlab stimuli`: render a design's stimulus set, list its ids, describe a frame's scene,
+//! write the built-in environment map.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use clap::{Subcommand, ValueEnum};
+use render::set::{ProgressMode, SetError, SetRequest, render_set};
+use study::design::{Design, DesignError, Views};
+use study::ids::{Factor, StimulusId};
+use study::select::Selection;
+
+use super::BadInput;
 
 /// Arguments.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render every selected sequence of a design into a set folder.
+    Render(RenderArgs),
+    /// Print the ids of the selected sequences, one per line.
+    List(ListArgs),
+    /// Print the scene of one frame of one stimulus.
+    Describe(DescribeArgs),
+    /// Write the built-in procedural environment map as an EXR file.
+    Env(EnvArgs),
+}
+
+/// Which views to use (mono, stereo or both).
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum ViewsArg {
+    /// Monoscopic sequences.
+    Mono,
+    /// Side-by-side stereo sequences.
+    Stereo,
+    /// Both (monoscopic first).
+    Both,
+}
+
+impl From<ViewsArg> for Views {
+    fn from(v: ViewsArg) -> Views {
+        match v {
+            ViewsArg::Mono => Views::Mono,
+            ViewsArg::Stereo => Views::Stereo,
+            ViewsArg::Both => Views::Both,
+        }
+    }
+}
+
+/// Rendering device.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum DeviceArg {
+    /// The best available (the CPU tracer for now).
+    Auto,
+    /// The CPU reference tracer.
+    Cpu,
+    /// The GPU tracer.
+    Gpu,
+}
+
+#[derive(clap::Args)]
+struct Selecting {
+    /// The design file.
+    #[arg(long, default_value = "stimuli/navarro2011.toml")]
+    design: PathBuf,
+    /// Preset: `full` (the design as written) or one the design defines, e.g. `quick`.
+    #[arg(long, default_value = "full")]
+    preset: String,
+    /// Views to include.
+    #[arg(long, value_enum, default_value_t = ViewsArg::Both)]
+    views: ViewsArg,
+    /// Select sequences by factor levels, e.g. "M2 S2 T3-T5 *" (terms: `M2`, `T3-T5`,
+    /// `M1,M3`, `*`, `mono`, `stereo`).
+    #[arg(long)]
+    only: Option<String>,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    select: Selecting,
+    /// The set folder.
+    #[arg(long)]
+    out: PathBuf,
+    /// Skip sequences whose manifest and frame hashes verify.
+    #[arg(long)]
+    resume: bool,
+    /// Also write linear EXR frames.
+    #[arg(long)]
+    exr: bool,
+    /// Rendering device.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
+    device: DeviceArg,
+    /// Render only shard K of N (1-based, `K/N`): every N-th selected sequence from the K-th.
+    #[arg(long)]
+    shard: Option<String>,
+    /// Progress on stderr: bars on a terminal, else one line per sequence.
+    #[arg(long, value_enum, default_value_t = ProgressArg::Auto)]
+    progress: ProgressArg,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum ProgressArg {
+    Auto,
+    Lines,
+    Quiet,
+}
+
+#[derive(clap::Args)]
+struct ListArgs {
+    #[command(flatten)]
+    select: Selecting,
+}
+
+#[derive(clap::Args)]
+struct DescribeArgs {
+    /// The design file.
+    #[arg(long, default_value = "stimuli/navarro2011.toml")]
+    design: PathBuf,
+    /// Preset.
+    #[arg(long, default_value = "full")]
+    preset: String,
+    /// Stimulus id, e.g. `M2-S2-T3-A5` or `M2-S2-T3-A5-stereo`.
+    id: String,
+    /// Frame index (0-based within the preset).
+    #[arg(long, default_value_t = 0)]
+    frame: u32,
+    /// Print the exact scene as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(clap::Args)]
+struct EnvArgs {
+    /// Output EXR file.
+    #[arg(long)]
+    out: PathBuf,
+    /// Width of the map in pixels (height is half); defaults to the design's.
+    #[arg(long)]
+    width: Option<u32>,
+}
 
 /// Runs the subcommand.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`stimuli` is not built yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    match args.command {
+        Command::Render(a) => render(a),
+        Command::List(a) => list(a),
+        Command::Describe(a) => describe(a),
+        Command::Env(a) => env(a),
+    }
+}
+
+/// Loads a design file; its errors are bad input.
+pub fn load_design(path: &Path) -> anyhow::Result<Design> {
+    Design::load(path).map_err(design_error)
+}
+
+/// Marks a design error as bad input (exit code 2).
+pub fn design_error(e: DesignError) -> anyhow::Error {
+    BadInput(e.to_string()).into()
+}
+
+fn selected(design: &Design, select: &Selecting) -> anyhow::Result<Vec<StimulusId>> {
+    let selection = match &select.only {
+        Some(text) => text.parse::<Selection>().map_err(|e| BadInput(format!("--only: {e}")))?,
+        None => Selection::all(),
+    };
+    for factor in Factor::ALL {
+        let missing = selection.missing_levels(factor, design.level_count(factor));
+        if let Some(level) = missing.first() {
+            return Err(BadInput(format!(
+                "--only `{selection}`: level {}{level} does not exist in {} ({}1..{}{})",
+                factor.letter(),
+                design.path.display(),
+                factor.letter(),
+                factor.letter(),
+                design.level_count(factor)
+            ))
+            .into());
+        }
+    }
+    let ids: Vec<StimulusId> = design.ids(select.views.into()).into_iter().filter(|id| selection.matches(id)).collect();
+    if ids.is_empty() {
+        return Err(
+            BadInput(format!("--only `{selection}` with --views {:?} selects no sequence", select.views)).into()
+        );
+    }
+    Ok(ids)
+}
+
+fn parse_shard(text: &str) -> anyhow::Result<(usize, usize)> {
+    let bad = || BadInput(format!("--shard `{text}`: expected K/N with 1 <= K <= N"));
+    let (k, n) = text.split_once('/').ok_or_else(bad)?;
+    let (k, n): (usize, usize) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
+    if k == 0 || n == 0 || k > n {
+        return Err(bad().into());
+    }
+    Ok((k, n))
+}
+
+fn render(a: RenderArgs) -> anyhow::Result<()> {
+    if matches!(a.device, DeviceArg::Gpu) {
+        return Err(BadInput("--device gpu: the GPU tracer is not built yet; use --device cpu".into()).into());
+    }
+    let design = load_design(&a.select.design)?;
+    let preset = design.preset(&a.select.preset).map_err(design_error)?;
+    let mut ids = selected(&design, &a.select)?;
+    if let Some(shard) = &a.shard {
+        let (k, n) = parse_shard(shard)?;
+        ids = ids.into_iter().enumerate().filter(|(i, _)| i % n == k - 1).map(|(_, id)| id).collect();
+    }
+    let request = SetRequest {
+        design: &design,
+        preset,
+        ids,
+        out: a.out.clone(),
+        resume: a.resume,
+        exr: a.exr,
+        progress: match a.progress {
+            ProgressArg::Auto => ProgressMode::Auto,
+            ProgressArg::Lines => ProgressMode::Lines,
+            ProgressArg::Quiet => ProgressMode::Quiet,
+        },
+    };
+    let report = render_set(&request).map_err(set_error)?;
+    eprintln!(
+        "{}: {} sequences rendered, {} verified and skipped, {} non-finite samples discarded, {:.1} s",
+        a.out.display(),
+        report.rendered.len(),
+        report.skipped.len(),
+        report.nonfinite_samples,
+        report.wall_seconds
+    );
+    Ok(())
+}
+
+/// Turns a set error into an `anyhow` error with the right exit code.
+pub fn set_error(e: SetError) -> anyhow::Error {
+    if e.is_bad_input() { BadInput(e.to_string()).into() } else { anyhow::Error::new(e) }
+}
+
+fn list(a: ListArgs) -> anyhow::Result<()> {
+    let design = load_design(&a.select.design)?;
+    design.preset(&a.select.preset).map_err(design_error)?;
+    for id in selected(&design, &a.select)? {
+        println!("{id}");
+    }
+    Ok(())
+}
+
+fn describe(a: DescribeArgs) -> anyhow::Result<()> {
+    let design = load_design(&a.design)?;
+    let id: StimulusId = a.id.parse().map_err(|e: study::ids::IdError| BadInput(e.to_string()))?;
+    let preset = design.preset(&a.preset).map_err(design_error)?;
+    let scene = design.frame_scene_with(&preset, &id, a.frame).map_err(design_error)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&scene)?);
+        return Ok(());
+    }
+    let f = design.factors(&id, &preset).map_err(design_error)?;
+    println!("{id}, frame {} of preset `{}` ({})", a.frame, preset.name, design.path.display());
+    println!(
+        "  factors: {} {}, {} {} ({} deg/s), {} {} ({} of the frame), {} {} ({} spp)",
+        f.material.label,
+        f.material.name,
+        f.speed.label,
+        f.speed.name,
+        f.speed.value,
+        f.shutter.label,
+        f.shutter.name,
+        f.shutter.value,
+        f.samples.label,
+        f.samples.name,
+        scene.samples_per_pixel
+    );
+    println!(
+        "  time {:.6} s, shutter open {:.6} s, close {:.6} s",
+        scene.frame_time, scene.shutter.open, scene.shutter.close
+    );
+    for v in &scene.views {
+        let c = &v.camera;
+        println!(
+            "  {:?} camera at {:.4?} looking {:.4?}, {} mm lens, {} mm sensor (shift {:.4?} mm), {}x{}, seed {}",
+            v.eye,
+            c.position.to_array(),
+            c.forward.to_array(),
+            c.focal_length * 1000.0,
+            c.sensor_width * 1000.0,
+            (c.sensor_shift * 1000.0).to_array(),
+            c.width,
+            c.height,
+            v.seed
+        );
+    }
+    let s = &scene.sphere;
+    for (what, t) in [("open", scene.shutter.open), ("close", scene.shutter.close)] {
+        println!(
+            "  sphere at shutter {what}: centre {:.4?}, orientation {:.4?}",
+            s.centre_at(t).to_array(),
+            s.orientation_at(t).to_array()
+        );
+    }
+    println!(
+        "  sphere: radius {} m, velocity {:.4?} m/s, path wraps every {:?} m",
+        s.radius,
+        s.velocity.to_array(),
+        s.wrap_length
+    );
+    println!("  material: {:?}", scene.material);
+    println!("  floor: height {} m, albedo {:?}", scene.floor.height, scene.floor.albedo);
+    println!("  lighting: {:?}", scene.lighting);
+    println!("  integrator: {:?}; exposure: {:?}", scene.integrator, scene.exposure);
+    Ok(())
+}
+
+fn env(a: EnvArgs) -> anyhow::Result<()> {
+    let width = a.width.unwrap_or(1024);
+    if width < 4 || width % 2 != 0 {
+        return Err(BadInput(format!("--width {width}: must be an even number of at least 4")).into());
+    }
+    let image = render::env::default_map(width);
+    let bytes = render::io::encode_exr(&image).context("cannot encode the environment map")?;
+    if let Some(parent) = a.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).with_context(|| format!("{}: cannot create the folder", parent.display()))?;
+    }
+    study::fsio::write_atomic(&a.out, &bytes).with_context(|| format!("{}: cannot write", a.out.display()))?;
+    eprintln!("{}: {}x{} linear EXR", a.out.display(), image.width, image.height);
+    Ok(())
 }
