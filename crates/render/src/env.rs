@@ -465,9 +465,9 @@ pub fn default_map(width: u32) -> LinearImage {
             };
             let key_angle = d.dot(key).clamp(-1.0, 1.0).acos();
             let fill_angle = d.dot(fill).clamp(-1.0, 1.0).acos();
-            // Key: ~8 degree soft disc (radiance 40) with a wide glow; fill: broad and dim.
+            // Key: ~6 degree soft disc (radiance 150) with a wide glow; fill: broad and dim.
             let key_light = DVec3::new(1.0, 0.9, 0.75)
-                * (40.0 * (1.0 - smoothstep(0.10, 0.16, key_angle)) + 1.5 * (-key_angle * key_angle / 0.18).exp());
+                * (150.0 * (1.0 - smoothstep(0.08, 0.14, key_angle)) + 1.5 * (-key_angle * key_angle / 0.18).exp());
             let fill_light = DVec3::new(0.7, 0.8, 1.0) * (2.0 * (-fill_angle * fill_angle / 0.08).exp());
             let v = c + key_light + fill_light;
             img.set(x, y, [v.x as f32, v.y as f32, v.z as f32]);

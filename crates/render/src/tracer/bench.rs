@@ -47,3 +47,42 @@ pub fn freeze_at(scene: &mut FrameScene, t: f64) {
     s.wrap_length = None;
     scene.shutter = study::scene::Shutter { open: t, close: t };
 }
+
+/// The sphere of a static frame as another renderer needs it: centre, rotation (object to
+/// world, row-major) and the albedo texture baked over Mitsuba's sphere parametrisation.
+pub struct PeerSphere {
+    /// Centre at the shutter's opening.
+    pub centre: [f64; 3],
+    /// Rotation matrix rows (object to world).
+    pub rotation: [[f64; 3]; 3],
+    /// Albedo, `2 h x h` texels: u = phi / 2 pi (phi from +x towards +y), v = theta / pi
+    /// (theta from +z) of the point in the object frame, filtered for the footprint of a
+    /// pixel at the sphere's distance as this tracer's camera rays see it.
+    pub albedo: crate::io::LinearImage,
+}
+
+/// Bakes the sphere of `scene` (at its shutter's opening) for a peer renderer.
+pub fn peer_sphere(scene: &FrameScene, height: u32) -> PeerSphere {
+    use std::f64::consts::PI;
+    let cam = &scene.views[0].camera;
+    let s = &scene.sphere;
+    let t = scene.shutter.open;
+    let (centre, orientation) = (s.centre_at(t), s.orientation_at(t));
+    let distance = (centre - cam.position).length();
+    let footprint = distance * (cam.sensor_width / f64::from(cam.width) / cam.focal_length) / s.radius;
+    let shader = super::material::Shader::new(&scene.material);
+    let (tw, th) = (2 * height, height);
+    let mut albedo = crate::io::LinearImage::new(tw, th);
+    for y in 0..th {
+        let theta = PI * (f64::from(y) + 0.5) / f64::from(th);
+        for x in 0..tw {
+            let phi = 2.0 * PI * (f64::from(x) + 0.5) / f64::from(tw);
+            let local = glam::DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+            let a = shader.albedo(local, footprint);
+            albedo.set(x, y, [a.x as f32, a.y as f32, a.z as f32]);
+        }
+    }
+    let m = glam::DMat3::from_quat(orientation);
+    let rotation = [0, 1, 2].map(|r| [m.col(0)[r], m.col(1)[r], m.col(2)[r]]);
+    PeerSphere { centre: centre.to_array(), rotation, albedo }
+}
