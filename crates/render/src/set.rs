@@ -38,7 +38,7 @@ pub enum SetError {
     #[error(transparent)]
     Environment(#[from] EnvError),
     /// A file or folder could not be written, read or removed.
-    #[error("{}: {action}: {source}", path.display())]
+    #[error("{}: {action}", path.display())]
     Io {
         /// The file or folder.
         path: PathBuf,
@@ -48,7 +48,7 @@ pub enum SetError {
         source: io::Error,
     },
     /// An image could not be encoded.
-    #[error("{}: cannot encode: {source}", path.display())]
+    #[error("{}: cannot encode", path.display())]
     Encode {
         /// The file being produced.
         path: PathBuf,
