@@ -1,35 +1,26 @@
-//! Camera samples per second of the CPU tracer on the benchmark frame (M3-S3-T5, 640x360).
-//!
-//! `cargo bench -p blurlab-render --bench tracer -- [SPP] [OUT.png]`; `blurlab bench tracer
-//! --json` is the reported benchmark (with the Mitsuba 3 comparison).
+//! The tracer benchmark without the CLI: `cargo bench -p blurlab-render --bench tracer --
+//! [SPP] [none|mitsuba]` prints the same JSON as `blurlab bench tracer --json` (run from the
+//! workspace root so `stimuli/` and `bench/mitsuba_peer.py` are found).
 
-use std::time::Instant;
-
-use render::env::EnvironmentMap;
-use render::tracer::{bench::benchmark_frame, render_frame};
+use render::tracer::bench::{BenchOptions, run_benchmark};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
-    let spp: u32 = args.first().and_then(|s| s.parse().ok()).unwrap_or(16);
-    let design_path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml");
-    let design = study::design::Design::load(&design_path).expect("design");
-    for freeze in [false, true] {
-        let scene = benchmark_frame(&design, spp, freeze).expect("scene");
-        let env = EnvironmentMap::from_lighting(&scene.lighting).expect("environment");
-        let start = Instant::now();
-        let out = render_frame(&scene, &env);
-        let secs = start.elapsed().as_secs_f64();
-        println!(
-            "{} frame {} spp {spp}: {:.3} s, {:.2} M camera samples/s, nonfinite {}",
-            if freeze { "static" } else { "moving" },
-            scene.frame,
-            secs,
-            out.camera_samples as f64 / secs / 1e6,
-            out.nonfinite_samples
-        );
-        if let Some(path) = args.get(1) {
-            let path = if freeze { path.replace(".png", "-static.png") } else { path.clone() };
-            std::fs::write(path, render::io::encode_png_srgb(&out.eyes[0], &scene.exposure)).unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let opts = BenchOptions {
+        design: root.join("stimuli/navarro2011.toml"),
+        spp: args.first().and_then(|s| s.parse().ok()).unwrap_or(16),
+        peer: args.get(1).cloned().unwrap_or_else(|| "none".into()),
+        python: "python3".into(),
+        peer_script: root.join("bench/mitsuba_peer.py"),
+        mitsuba_sampler: args.get(2).cloned().unwrap_or_else(|| "independent".into()),
+        work: None,
+    };
+    match run_benchmark(&opts) {
+        Ok(result) => println!("{}", serde_json::to_string_pretty(&result).expect("JSON")),
+        Err(e) => {
+            eprintln!("error: {e}");
+            std::process::exit(1);
         }
     }
 }

@@ -1,10 +1,20 @@
 //! The tracer benchmark's frame: the full-resolution M3-S3-T5 mono frame of a design at the
 //! instant the sphere is nearest the image centre, optionally made static (the frozen
-//! sphere at that instant, for comparison with renderers that have no motion blur).
+//! sphere at that instant, for comparison with renderers that have no motion blur), and the
+//! benchmark itself ([`run_benchmark`]), which `blurlab bench tracer` and the crate's bench
+//! target run.
 
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde_json::json;
 use study::design::Design;
 use study::ids::{StimulusId, View};
-use study::scene::FrameScene;
+use study::scene::{Environment, FrameScene};
+
+use crate::env::{EnvironmentMap, default_map};
+use crate::io::{LinearImage, decode_exr, encode_exr};
+use crate::tracer::render_frame;
 
 /// The stimulus the benchmark renders.
 pub const BENCH_STIMULUS: StimulusId = StimulusId { material: 3, speed: 3, shutter: 5, samples: 1, view: View::Mono };
@@ -85,4 +95,306 @@ pub fn peer_sphere(scene: &FrameScene, height: u32) -> PeerSphere {
     let m = glam::DMat3::from_quat(orientation);
     let rotation = [0, 1, 2].map(|r| [m.col(0)[r], m.col(1)[r], m.col(2)[r]]);
     PeerSphere { centre: centre.to_array(), rotation, albedo }
+}
+
+/// Options of [`run_benchmark`].
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Design file whose M3-S3-T5 frame is rendered.
+    pub design: PathBuf,
+    /// Samples per pixel of every render.
+    pub spp: u32,
+    /// Peer renderer: `mitsuba` or `none`.
+    pub peer: String,
+    /// Python interpreter that has the `mitsuba` package.
+    pub python: String,
+    /// The peer's driver script.
+    pub peer_script: PathBuf,
+    /// Mitsuba sampler (`independent`, `stratified`, `multijitter`, `ldsampler`, ...).
+    pub mitsuba_sampler: String,
+    /// Folder for the peer's scene and images (default: a new temporary folder).
+    pub work: Option<PathBuf>,
+}
+
+/// Errors of the benchmark.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// The design file.
+    #[error(transparent)]
+    Design(#[from] study::design::DesignError),
+    /// The environment map.
+    #[error(transparent)]
+    Env(#[from] crate::env::EnvError),
+    /// Image encoding or decoding.
+    #[error(transparent)]
+    Image(#[from] crate::io::IoError),
+    /// A file of the work folder.
+    #[error("{0}: {1}")]
+    File(PathBuf, std::io::Error),
+    /// The peer renderer.
+    #[error("{0}")]
+    Peer(String),
+}
+
+fn read(path: &Path) -> Result<Vec<u8>, BenchError> {
+    std::fs::read(path).map_err(|e| BenchError::File(path.to_path_buf(), e))
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
+    std::fs::write(path, bytes).map_err(|e| BenchError::File(path.to_path_buf(), e))
+}
+
+fn rms_noise(a: &LinearImage, b: &LinearImage) -> f64 {
+    let sum: f64 = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(p, q)| (0..3).map(|c| (f64::from(p[c]) - f64::from(q[c])).powi(2)).sum::<f64>())
+        .sum();
+    (sum / (3 * a.pixels.len()) as f64).sqrt() / std::f64::consts::SQRT_2
+}
+
+fn mean_rgb(images: &[&LinearImage]) -> [f64; 3] {
+    let mut m = [0.0; 3];
+    let n: usize = images.iter().map(|i| i.pixels.len()).sum();
+    for img in images {
+        for p in &img.pixels {
+            for c in 0..3 {
+                m[c] += f64::from(p[c]);
+            }
+        }
+    }
+    m.map(|v| v / n as f64)
+}
+
+fn average(a: &LinearImage, b: &LinearImage) -> LinearImage {
+    let pixels = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(p, q)| [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])])
+        .collect();
+    LinearImage { width: a.width, height: a.height, pixels }
+}
+
+fn machine() -> serde_json::Value {
+    let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let model = cpuinfo
+        .lines()
+        .find_map(|l| l.strip_prefix("model name").map(|r| r.trim_start_matches([' ', '\t', ':']).to_string()));
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    json!({
+        "nproc": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        "rayon_threads": rayon_threads(),
+        "cpu_model": model,
+        "loadavg_at_start": load.split_whitespace().take(3).collect::<Vec<_>>().join(" "),
+    })
+}
+
+fn rayon_threads() -> usize {
+    // The render crate's parallel loops use rayon's global pool.
+    std::env::var("RAYON_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1))
+}
+
+struct Timed {
+    image: LinearImage,
+    seconds: f64,
+    samples: u64,
+    nonfinite: u64,
+}
+
+fn timed_render(scene: &FrameScene, env: &EnvironmentMap) -> Timed {
+    let start = Instant::now();
+    let mut out = render_frame(scene, env);
+    let seconds = start.elapsed().as_secs_f64();
+    Timed { image: out.eyes.remove(0), seconds, samples: out.camera_samples, nonfinite: out.nonfinite_samples }
+}
+
+/// Renders the benchmark frames and, with `peer = "mitsuba"`, runs the Mitsuba 3 driver on
+/// the same static frame; returns the JSON report (machine, speeds, noise, comparison,
+/// projected time of the full set).
+///
+/// Noise is the RMS over pixels and channels of the difference of two independently
+/// seeded renders divided by sqrt(2): an unbiased estimate of the per-pixel standard
+/// deviation that needs no reference image.
+pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchError> {
+    let machine = machine();
+    let design = Design::load(&opts.design)?;
+    let moving = benchmark_frame(&design, opts.spp, false)?;
+    let frozen = benchmark_frame(&design, opts.spp, true)?;
+    let env = EnvironmentMap::from_lighting(&moving.lighting)?;
+
+    // Warm-up (page faults, thread pool start) on a small copy, not timed.
+    let mut warm = frozen.clone();
+    warm.samples_per_pixel = 1;
+    render_frame(&warm, &env);
+
+    let moving_run = timed_render(&moving, &env);
+    let static_a = timed_render(&frozen, &env);
+    let mut frozen_b = frozen.clone();
+    frozen_b.views[0].seed ^= 0x9e37_79b9_7f4a_7c15;
+    let static_b = timed_render(&frozen_b, &env);
+    let ours_static_sps = (static_a.samples + static_b.samples) as f64 / (static_a.seconds + static_b.seconds);
+    let ours_noise = rms_noise(&static_a.image, &static_b.image);
+    let ours_mean = mean_rgb(&[&static_a.image, &static_b.image]);
+    let moving_sps = moving_run.samples as f64 / moving_run.seconds;
+
+    let preset = design.preset("full")?;
+    // Camera samples of the whole set: every (M, S, T) at every A level, mono (1 eye) and
+    // stereo (2 eyes), every frame.
+    let mst = f64::from(design.level_count(study::ids::Factor::Material))
+        * f64::from(design.level_count(study::ids::Factor::Speed))
+        * f64::from(design.level_count(study::ids::Factor::Shutter));
+    let spp_sum: f64 = preset.samples_per_pixel.iter().map(|&s| f64::from(s)).sum();
+    let set_samples =
+        mst * spp_sum * 3.0 * f64::from(preset.frames) * f64::from(preset.width) * f64::from(preset.height);
+    let set_seconds = set_samples / moving_sps;
+
+    let mut result = json!({
+        "benchmark": "tracer",
+        "command": std::env::args().collect::<Vec<_>>().join(" "),
+        "machine": machine,
+        "frame": {
+            "stimulus": BENCH_STIMULUS.to_string(),
+            "frame": moving.frame,
+            "width": moving.views[0].camera.width,
+            "height": moving.views[0].camera.height,
+            "samples_per_pixel": opts.spp,
+            "max_bounces": moving.integrator.max_bounces,
+            "russian_roulette_from": moving.integrator.russian_roulette_from,
+        },
+        "blurlab": {
+            "moving_frame": {
+                "seconds": moving_run.seconds,
+                "camera_samples": moving_run.samples,
+                "camera_samples_per_second": moving_sps,
+                "nonfinite_samples": moving_run.nonfinite,
+            },
+            "static_frame": {
+                "seconds": [static_a.seconds, static_b.seconds],
+                "camera_samples_per_second": ours_static_sps,
+                "noise_rms": ours_noise,
+                "mean_rgb": ours_mean,
+            },
+        },
+        "full_set_projection": {
+            "camera_samples": set_samples,
+            "at_camera_samples_per_second": moving_sps,
+            "seconds": set_seconds,
+            "hours": set_seconds / 3600.0,
+        },
+    });
+
+    if opts.peer == "mitsuba" {
+        let work = match &opts.work {
+            Some(w) => w.clone(),
+            None => std::env::temp_dir().join(format!("blurlab-bench-tracer-{}", std::process::id())),
+        };
+        std::fs::create_dir_all(&work).map_err(|e| BenchError::File(work.clone(), e))?;
+        write_peer_scene(&frozen, &work, &opts.mitsuba_sampler)?;
+        let status =
+            std::process::Command::new(&opts.python).arg(&opts.peer_script).arg(&work).status().map_err(|e| {
+                BenchError::Peer(format!("cannot start {} {}: {e}", opts.python, opts.peer_script.display()))
+            })?;
+        if !status.success() {
+            return Err(BenchError::Peer(format!(
+                "the Mitsuba peer failed ({status}); is `pip install mitsuba` done?"
+            )));
+        }
+        let peer_json = work.join("mitsuba.json");
+        let peer: serde_json::Value = serde_json::from_slice(&read(&peer_json)?)
+            .map_err(|e| BenchError::Peer(format!("{}: {e}", peer_json.display())))?;
+        let load = |name: &str| -> Result<LinearImage, BenchError> {
+            let path = work.join(name);
+            decode_exr(&read(&path)?).map_err(|e| BenchError::Peer(format!("{}: {e}", path.display())))
+        };
+        let (ma, mb) = (load("mitsuba-seed1.exr")?, load("mitsuba-seed2.exr")?);
+        let their_noise = rms_noise(&ma, &mb);
+        let their_sps = peer["camera_samples_per_second"].as_f64().unwrap_or(f64::NAN);
+        let ours_avg = average(&static_a.image, &static_b.image);
+        let theirs_avg = average(&ma, &mb);
+        // Agreement of the two renderers' images (includes both noises).
+        let image_rms_difference = rms_noise(&ours_avg, &theirs_avg) * std::f64::consts::SQRT_2;
+        result["mitsuba"] = json!({
+            "driver": peer,
+            "camera_samples_per_second": their_sps,
+            "noise_rms": their_noise,
+            "mean_rgb": mean_rgb(&[&ma, &mb]),
+        });
+        result["comparison"] = json!({
+            "speedup_static": ours_static_sps / their_sps,
+            "speedup_moving_vs_mitsuba_static": moving_sps / their_sps,
+            "noise_ratio_blurlab_over_mitsuba": ours_noise / their_noise,
+            "image_rms_difference": image_rms_difference,
+            "target_met": ours_static_sps >= 5.0 * their_sps && ours_noise <= their_noise,
+        });
+        write(&work.join("blurlab-seed1.exr"), &encode_exr(&static_a.image)?)?;
+        write(&work.join("blurlab-seed2.exr"), &encode_exr(&static_b.image)?)?;
+        result["work_dir"] = json!(work);
+    } else if opts.peer != "none" {
+        return Err(BenchError::Peer(format!("unknown peer `{}` (expected mitsuba or none)", opts.peer)));
+    }
+
+    Ok(result)
+}
+
+/// Writes `scene.json`, the environment map and the sphere's baked albedo for the peer.
+fn write_peer_scene(scene: &FrameScene, dir: &Path, sampler: &str) -> Result<(), BenchError> {
+    let cam = &scene.views[0].camera;
+    let env_image = match &scene.lighting.environment {
+        Environment::Default { width } => default_map(*width),
+        Environment::File { path } => {
+            let bytes = read(path)?;
+            match path.extension().and_then(|e| e.to_str()) {
+                Some("exr") => decode_exr(&bytes)?,
+                _ => crate::io::decode_hdr(&bytes)?,
+            }
+        }
+        Environment::Uniform { radiance } => {
+            let mut img = LinearImage::new(8, 4);
+            img.pixels.fill(radiance.map(|c| c as f32));
+            img
+        }
+    };
+    if scene.lighting.rotation_y != 0.0 {
+        return Err(BenchError::Peer(
+            "the Mitsuba peer does not rotate the environment; use an unrotated design".into(),
+        ));
+    }
+    let env_path = dir.join("environment.exr");
+    write(&env_path, &encode_exr(&env_image)?)?;
+
+    let sphere = peer_sphere(scene, 1024);
+    let tex_path = dir.join("sphere-albedo.exr");
+    write(&tex_path, &encode_exr(&sphere.albedo)?)?;
+
+    let desc = json!({
+        "camera": {
+            "position": cam.position.to_array(),
+            "target": (cam.position + cam.forward).to_array(),
+            "up": cam.up.to_array(),
+            "horizontal_fov_degrees": cam.horizontal_fov().to_degrees(),
+            "width": cam.width,
+            "height": cam.height,
+        },
+        "sphere": {
+            "centre": sphere.centre,
+            "radius": scene.sphere.radius,
+            "rotation": sphere.rotation,
+            "albedo_exr": tex_path,
+        },
+        "floor": { "height": scene.floor.height, "albedo": scene.floor.albedo },
+        "environment_exr": env_path,
+        "environment_scale": scene.lighting.intensity,
+        "samples_per_pixel": scene.samples_per_pixel,
+        // blurlab's B bounces are B scattering events: B + 1 path segments.
+        "mitsuba_max_depth": scene.integrator.max_bounces + 1,
+        "mitsuba_rr_depth": scene.integrator.russian_roulette_from + 1,
+        "mitsuba_sampler": sampler,
+    });
+    write(&dir.join("scene.json"), &serde_json::to_vec_pretty(&desc).expect("JSON of plain values"))?;
+    Ok(())
 }
