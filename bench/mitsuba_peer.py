@@ -1,0 +1,131 @@
+#!/usr/bin/env python3
+"""Mitsuba 3 peer of `blurlab bench tracer`.
+
+Reads the static benchmark frame that blurlab wrote (scene.json: camera, sphere with its
+baked albedo texture, floor, environment map EXR, integrator depth, samples per pixel),
+renders it with Mitsuba 3's `path` integrator in the `scalar_rgb` variant, and writes:
+
+  mitsuba-seed1.exr, mitsuba-seed2.exr   two independently seeded renders at the same spp
+  mitsuba.json                           timings and versions
+
+blurlab computes noise (RMS of the difference of the two renders / sqrt 2) and means from
+the EXRs itself, with the same code it uses for its own renders.
+
+Usage: python3 bench/mitsuba_peer.py DIR      (DIR holds scene.json; outputs go there)
+Requires: pip install mitsuba
+"""
+
+import json
+import os
+import sys
+import time
+
+
+def main():
+    out_dir = sys.argv[1]
+    with open(os.path.join(out_dir, "scene.json")) as f:
+        desc = json.load(f)
+
+    import mitsuba as mi
+
+    mi.set_variant("scalar_rgb")
+    T = mi.ScalarTransform4f
+
+    cam = desc["camera"]
+    sph = desc["sphere"]
+    floor = desc["floor"]
+    spp = int(desc["samples_per_pixel"])
+    sampler = desc.get("mitsuba_sampler", "independent")
+
+    # Sphere: object frame = blurlab's object frame (rotation matrix, row-major), scaled by
+    # the radius and moved to the centre. Mitsuba's sphere uv is (phi / 2 pi, theta / pi)
+    # of the local point with theta from +z; blurlab baked its texture in that
+    # parametrisation.
+    m = sph["rotation"]
+    c = sph["centre"]
+    r = sph["radius"]
+    rot = T(
+        [
+            [m[0][0], m[0][1], m[0][2], 0.0],
+            [m[1][0], m[1][1], m[1][2], 0.0],
+            [m[2][0], m[2][1], m[2][2], 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+    sphere_to_world = T().translate(c) @ rot @ T().scale(r)
+
+    scene = {
+        "type": "scene",
+        "integrator": {
+            "type": "path",
+            "max_depth": int(desc["mitsuba_max_depth"]),
+            "rr_depth": int(desc["mitsuba_rr_depth"]),
+        },
+        "sensor": {
+            "type": "perspective",
+            "fov_axis": "x",
+            "fov": float(cam["horizontal_fov_degrees"]),
+            "to_world": T().look_at(origin=cam["position"], target=cam["target"], up=cam["up"]),
+            "film": {
+                "type": "hdrfilm",
+                "width": int(cam["width"]),
+                "height": int(cam["height"]),
+                "rfilter": {"type": "box"},
+                "pixel_format": "rgb",
+            },
+            "sampler": {"type": sampler, "sample_count": spp},
+        },
+        "env": {
+            "type": "envmap",
+            "filename": desc["environment_exr"],
+            "scale": float(desc["environment_scale"]),
+        },
+        "sphere": {
+            "type": "sphere",
+            "to_world": sphere_to_world,
+            "bsdf": {
+                "type": "diffuse",
+                "reflectance": {
+                    "type": "bitmap",
+                    "filename": sph["albedo_exr"],
+                    "raw": True,
+                    "filter_type": "nearest",
+                },
+            },
+        },
+        "floor": {
+            "type": "rectangle",
+            # Mitsuba's rectangle spans [-1, 1]^2 in z = 0 with normal +z: turn it to +y.
+            "to_world": T().translate([0.0, floor["height"], 0.0])
+            @ T().rotate([1.0, 0.0, 0.0], -90.0)
+            @ T().scale([1.0e4, 1.0e4, 1.0]),
+            "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": floor["albedo"]}},
+        },
+    }
+
+    t0 = time.perf_counter()
+    loaded = mi.load_dict(scene)
+    load_s = time.perf_counter() - t0
+    runs = []
+    for seed in (1, 2):
+        t0 = time.perf_counter()
+        img = mi.render(loaded, spp=spp, seed=seed)
+        secs = time.perf_counter() - t0
+        mi.Bitmap(img).write(os.path.join(out_dir, f"mitsuba-seed{seed}.exr"))
+        runs.append(secs)
+    w, h = int(cam["width"]), int(cam["height"])
+    result = {
+        "renderer": f"mitsuba {mi.__version__} scalar_rgb path",
+        "sampler": sampler,
+        "threads": os.cpu_count(),
+        "samples_per_pixel": spp,
+        "load_seconds": load_s,
+        "render_seconds": runs,
+        "camera_samples_per_second": w * h * spp / min(runs),
+    }
+    with open(os.path.join(out_dir, "mitsuba.json"), "w") as f:
+        json.dump(result, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()
