@@ -18,4 +18,5 @@ pub mod plots;
 pub mod report;
 pub mod scaling;
 pub mod srange;
+pub mod synthetic;
 pub mod votes;

@@ -420,7 +420,9 @@ impl Figure for PreferenceFigure {
                         )])
                         .map_err(err)?;
                     let level = if k == 0 { &q.level_a } else { &q.level_b };
-                    chart.draw_series([Text::new(level.clone(), (xc, share + 0.04), centred(12.0))]).map_err(err)?;
+                    chart
+                        .draw_series([Text::new(level.clone(), (xc, (share + q.se).min(1.0) + 0.035), centred(12.0))])
+                        .map_err(err)?;
                 }
                 chart.draw_series([Text::new(name.clone(), (x + 0.43, -0.06), centred(12.0))]).map_err(err)?;
             }

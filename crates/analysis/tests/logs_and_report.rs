@@ -222,7 +222,8 @@ fn mono_and_stereo_interactions_give_a_full_report_with_costs_and_figures() {
     let shutter = p.factor_preferences["all"].iter().find(|q| q.level_a == "T3" && q.level_b == "T5").unwrap();
     assert!(shutter.p_a > 0.8 && shutter.p_value < 0.01, "{shutter:?}");
 
-    let out = dir.path().join("report");
+    // BLURLAB_KEEP_REPORT=DIR keeps a copy of the report for inspection.
+    let out = std::env::var_os("BLURLAB_KEEP_REPORT").map_or_else(|| dir.path().join("report"), PathBuf::from);
     let md = write_report(&mut report, &out).unwrap();
     let text = std::fs::read_to_string(&md).unwrap();
     assert!(text.contains("ceil(R_c)") && text.contains("Recommendation") && text.contains("Kendall's u"));

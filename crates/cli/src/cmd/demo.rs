@@ -1,10 +1,178 @@
-//! `blurlab demo` (not built yet).
+//! `blurlab demo`: the main job end to end, on a fresh machine without a GPU. Renders the
+//! quick stimulus set for the interaction experiment (or reuses the sequences that verify),
+//! runs simulated participants (Thurstone observers, recorded seeds) through
+//! mono-3-interactions and stereo-3-interactions, analyses them and prints where the report
+//! is. With `--gui` it opens the runner's window on the same set instead of simulating.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use analysis::experiment::{AnalysisOptions, JudgeUnit};
+use analysis::report::{build_report, write_report};
+use analysis::scaling::ScaleOptions;
+use anyhow::Context;
+use render::set::{ProgressMode, SetRequest, render_set};
+use runner::simulate::{ObserverModel, Quality, SimulateOptions, run_session_with};
+use study::StimulusId;
+use study::design::Design;
+use study::experiment::ExperimentDefinition;
+
+use super::BadInput;
+
+/// The experiments the demo runs.
+const EXPERIMENTS: [&str; 2] = ["mono-3-interactions", "stereo-3-interactions"];
+/// Marks a results folder as the demo's own, so a rerun may replace it.
+const MARKER: &str = ".blurlab-demo";
 
 /// Arguments.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// The design file.
+    #[arg(long, default_value = "stimuli/navarro2011.toml")]
+    design: PathBuf,
+    /// Folder of experiment definitions.
+    #[arg(long, default_value = "experiments")]
+    experiments: PathBuf,
+    /// The quick stimulus set's folder (rendered or resumed there).
+    #[arg(long, default_value = "stimuli/out/quick")]
+    set: PathBuf,
+    /// Output folder: `results/` (simulated logs) and `report/`.
+    #[arg(long, default_value = "reports/demo")]
+    out: PathBuf,
+    /// Simulated participants per experiment.
+    #[arg(long, default_value_t = 12)]
+    participants: u32,
+    /// Seed of the simulated participants (participant k uses seed + k) and the bootstrap.
+    #[arg(long, default_value_t = 2026)]
+    seed: u64,
+    /// Open the runner's window on the set instead of simulating.
+    #[arg(long)]
+    gui: bool,
+    /// Experiment shown by `--gui`.
+    #[arg(long, default_value = "mono-3-interactions")]
+    gui_experiment: String,
+}
+
+fn runner_error(e: runner::RunnerError) -> anyhow::Error {
+    if e.is_bad_input() { BadInput(e.to_string()).into() } else { anyhow::Error::new(e) }
+}
+
+fn definition(dir: &Path, name: &str) -> anyhow::Result<ExperimentDefinition> {
+    ExperimentDefinition::read(&dir.join(format!("{name}.toml"))).map_err(|e| BadInput(e.to_string()).into())
+}
 
 /// Runs the subcommand.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`demo` is not built yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let definitions: Vec<ExperimentDefinition> =
+        EXPERIMENTS.iter().map(|n| definition(&args.experiments, n)).collect::<anyhow::Result<_>>()?;
+    let design = Design::load(&args.design).map_err(|e| BadInput(e.to_string()))?;
+    let preset = design.preset("quick").map_err(|e| BadInput(e.to_string()))?;
+    let mut ids: BTreeSet<StimulusId> = BTreeSet::new();
+    for d in &definitions {
+        ids.extend(d.all_stimuli());
+    }
+    let gui_definition = if args.gui { Some(definition(&args.experiments, &args.gui_experiment)?) } else { None };
+    if let Some(d) = &gui_definition {
+        ids.extend(d.all_stimuli());
+    }
+    eprintln!(
+        "demo: rendering {} sequences of the quick set into {} (reusing those that verify)",
+        ids.len(),
+        args.set.display()
+    );
+    let rendered = render_set(&SetRequest {
+        design: &design,
+        preset,
+        ids: ids.into_iter().collect(),
+        out: args.set.clone(),
+        resume: true,
+        exr: false,
+        progress: ProgressMode::Lines,
+    })
+    .map_err(|e| if e.is_bad_input() { anyhow::Error::new(BadInput(e.to_string())) } else { anyhow::Error::new(e) })?;
+    eprintln!(
+        "demo: {} rendered, {} reused, {:.1} s",
+        rendered.rendered.len(),
+        rendered.skipped.len(),
+        rendered.wall_seconds
+    );
+
+    if let Some(d) = gui_definition {
+        let set = runner::stimuli::StimulusSet::open_for(&args.set, &d).map_err(runner_error)?;
+        let config = runner::app::AppConfig::new(d, set, PathBuf::from("results"));
+        runner::app::run_window(config, false).map_err(runner_error)?;
+        return Ok(());
+    }
+
+    let results = args.out.join("results");
+    if results.exists() {
+        if !results.join(MARKER).exists() {
+            return Err(BadInput(format!(
+                "{} exists and was not made by the demo; choose another --out",
+                results.display()
+            ))
+            .into());
+        }
+        std::fs::remove_dir_all(&results).with_context(|| format!("removing the previous {}", results.display()))?;
+    }
+    std::fs::create_dir_all(&results).with_context(|| format!("creating {}", results.display()))?;
+    study::fsio::write_atomic(&results.join(MARKER), b"simulated results of `blurlab demo`; replaced on every run\n")
+        .with_context(|| format!("writing into {}", results.display()))?;
+    let model = ObserverModel::Thurstone { sigma: 1.0, quality: Quality::Rule };
+    for d in &definitions {
+        for k in 1..=args.participants {
+            let experienced = if k % 2 == 0 { "yes" } else { "no" };
+            let options = SimulateOptions {
+                attributes: vec![("cg_experience".to_owned(), experienced.to_owned())],
+                ..SimulateOptions::default()
+            };
+            run_session_with(d, &args.set, &results, &format!("SIM{k:02}"), &model, args.seed + u64::from(k), &options)
+                .map_err(runner_error)?;
+        }
+        eprintln!("demo: {} simulated participants ran {}", args.participants, d.name);
+    }
+
+    let logs: Vec<PathBuf> = EXPERIMENTS.iter().map(|n| results.join(n)).collect();
+    let options = AnalysisOptions {
+        alpha: 0.01,
+        judge_unit: JudgeUnit::Replicate,
+        scale: ScaleOptions { seed: args.seed, ..ScaleOptions::default() },
+    };
+    let mut report = build_report(&logs, Some(&args.set), Some(&args.experiments), options)?;
+    let folder = args.out.join("report");
+    let md = write_report(&mut report, &folder)?;
+    for e in &report.experiments {
+        if let Some(p) = &e.paired {
+            let groups: Vec<String> = p
+                .groups
+                .iter()
+                .map(|g| {
+                    format!(
+                        "G{} {{{}}}",
+                        g.number,
+                        g.members.iter().map(|m| m.label.as_str()).collect::<Vec<_>>().join(", ")
+                    )
+                })
+                .collect();
+            println!(
+                "{}: m = {}, ceil(R_c) = {}, {}",
+                e.name,
+                p.complete_judges,
+                p.critical.map_or(0, |c| c.ceil_rc),
+                groups.join(" ")
+            );
+            if let Some(r) = &p.recommendation {
+                println!(
+                    "  {} ({:.2} s) is equivalent to {} ({:.2} s): saves {:.1} % of the render time",
+                    r.cheapest,
+                    r.cheapest_wall_seconds,
+                    r.reference,
+                    r.reference_wall_seconds,
+                    r.saving * 100.0
+                );
+            }
+        }
+    }
+    println!("report: {}", md.display());
+    Ok(())
 }
