@@ -1,10 +1,153 @@
-//! `blurlab run` (not built yet).
+//! `blurlab run EXPERIMENT --stimuli DIR --participant CODE`: runs (or resumes) a
+//! participant's session in the runner's window, or headlessly with `--simulate MODEL`.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::Context;
+use runner::RunnerError;
+use runner::calibration::Viewing;
+use runner::simulate::{ObserverModel, SimulateOptions, run_session_with};
+use study::experiment::{DisplayMode, ExperimentDefinition};
+
+use super::BadInput;
 
 /// Arguments.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Experiment definition: a file, or a name looked up as experiments/NAME.toml.
+    experiment: PathBuf,
+    /// Rendered stimulus set (folder with index.json).
+    #[arg(long)]
+    stimuli: PathBuf,
+    /// Pseudonymous participant code (letters, digits, `-`, `_`); never a name.
+    #[arg(long)]
+    participant: String,
+    /// Results root: logs go to RESULTS/EXPERIMENT/PARTICIPANT/session-N.csv.
+    #[arg(long, default_value = "results")]
+    results: PathBuf,
+    /// Run headlessly with a simulated observer: `thurstone[:sigma=S][,file=PATH]` or `random`.
+    #[arg(long)]
+    simulate: Option<String>,
+    /// Seed of a new session's schedule (and of the simulated observer). A resumed session
+    /// keeps the seed in its log; giving another one is an error.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Simulation only: wait this long before each answer (for kill-and-resume tests).
+    #[arg(long, default_value_t = 0)]
+    trial_delay_ms: u64,
+    /// Simulation only: stop after this many trials, leaving the session resumable.
+    #[arg(long)]
+    max_trials: Option<usize>,
+    /// Simulation only: participant attributes `KEY=VALUE` recorded in a new session's header.
+    #[arg(long = "attribute")]
+    attributes: Vec<String>,
+    /// Display mode instead of the definition's: mono, sbs-full, sbs-half, top-bottom,
+    /// anaglyph, row-interleaved.
+    #[arg(long)]
+    display: Option<String>,
+    /// Visible screen width in centimetres (calibration).
+    #[arg(long, default_value_t = Viewing::default().screen_width_cm)]
+    screen_width_cm: f64,
+    /// Horizontal screen resolution in pixels (calibration).
+    #[arg(long, default_value_t = Viewing::default().screen_width_px)]
+    screen_width_px: u32,
+    /// Viewing distance in centimetres (calibration).
+    #[arg(long, default_value_t = Viewing::default().distance_cm)]
+    distance_cm: f64,
+    /// Display refresh rate in Hz (frame pacing).
+    #[arg(long, default_value_t = 60.0)]
+    refresh_hz: f64,
+    /// Open the window full screen.
+    #[arg(long)]
+    fullscreen: bool,
+}
+
+/// Finds a definition by path or by name under experiments/.
+pub fn resolve_experiment(arg: &Path) -> PathBuf {
+    if arg.exists() || arg.extension().is_some() || arg.components().count() > 1 {
+        return arg.to_owned();
+    }
+    Path::new("experiments").join(arg).with_extension("toml")
+}
+
+/// Converts a runner error into an anyhow error with the CLI's exit-code conventions.
+pub fn runner_error(e: RunnerError) -> anyhow::Error {
+    if e.is_bad_input() { anyhow::Error::new(BadInput(e.to_string())) } else { anyhow::Error::new(e) }
+}
 
 /// Runs the subcommand.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`run` is not built yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let path = resolve_experiment(&args.experiment);
+    let definition = ExperimentDefinition::read(&path).map_err(|e| runner_error(e.into()))?;
+    let display: DisplayMode = match &args.display {
+        Some(text) => text.parse().map_err(|m: String| BadInput(format!("--display: {m}")))?,
+        None => definition.display,
+    };
+    if definition.view == study::View::Mono && display != DisplayMode::Mono {
+        return Err(BadInput(format!("--display {display}: {} is a mono experiment", definition.name)).into());
+    }
+    runner::session::check_participant(&args.participant).map_err(runner_error)?;
+
+    if let Some(model_text) = &args.simulate {
+        let model: ObserverModel = model_text.parse().map_err(runner_error)?;
+        let seed = args
+            .seed
+            .ok_or_else(|| BadInput("--simulate needs --seed S (simulated sessions are reproducible)".into()))?;
+        let mut attributes = Vec::new();
+        for a in &args.attributes {
+            let (k, v) = a.split_once('=').ok_or_else(|| BadInput(format!("--attribute `{a}` is not KEY=VALUE")))?;
+            attributes.push((k.to_owned(), v.to_owned()));
+        }
+        let options = SimulateOptions {
+            trial_delay: Duration::from_millis(args.trial_delay_ms),
+            max_trials: args.max_trials,
+            attributes,
+        };
+        let report =
+            run_session_with(&definition, &args.stimuli, &args.results, &args.participant, &model, seed, &options)
+                .map_err(runner_error)?;
+        for w in &report.warnings {
+            eprintln!("warning: {w}");
+        }
+        println!(
+            "{}: session {}, {} trials answered{}{}",
+            report.path.display(),
+            report.session,
+            report.answered,
+            if report.resumed { format!(" (resumed at trial {})", report.started_at) } else { String::new() },
+            if report.completed { ", complete" } else { ", incomplete (run again to resume)" }
+        );
+        return Ok(());
+    }
+
+    if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
+        return Err(BadInput("no display (DISPLAY and WAYLAND_DISPLAY are unset): run in a desktop session, or use --simulate MODEL --seed S".into()).into());
+    }
+    let set = runner::stimuli::StimulusSet::open_for(&args.stimuli, &definition).map_err(runner_error)?;
+    let mut config = runner::app::AppConfig::new(definition, set, args.results.clone());
+    config.participant = Some(args.participant.clone());
+    config.seed = args.seed;
+    config.display = display;
+    config.viewing = Viewing {
+        screen_width_cm: args.screen_width_cm,
+        screen_width_px: args.screen_width_px,
+        distance_cm: args.distance_cm,
+    };
+    config.refresh_hz = args.refresh_hz;
+    let calibration = config.calibration().map_err(runner_error)?;
+    if let Some(w) = &calibration.warning {
+        eprintln!("warning: calibration: {w}");
+    }
+    let app = runner::app::run_window(config, args.fullscreen).map_err(runner_error).context("running the window")?;
+    match app.session() {
+        Some(s) => println!(
+            "{}: {} trials answered in this window; {}",
+            s.path().display(),
+            app.written.len(),
+            if s.is_finished() { "session complete" } else { "session incomplete (run again to resume)" }
+        ),
+        None => println!("no session was started"),
+    }
+    Ok(())
 }

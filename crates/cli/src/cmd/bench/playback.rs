@@ -1,10 +1,143 @@
-//! `blurlab bench playback` (not built yet).
+//! `blurlab bench playback`: decode and upload time of one sequence (640x360 mono and
+//! 1280x360 side-by-side stereo, synthetic frames), memory held during a stereo 2AFC trial,
+//! and, with `--window` and a display, frame-interval statistics of real playback in the
+//! runner's window driven by its autopilot.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use runner::bench::{Gpu, decode_upload, frame_stats, trial_memory};
+use runner::stimuli::{StimulusSet, write_synthetic_set};
+use study::StimulusId;
+use study::experiment::{DisplayMode, ExperimentDefinition};
+
+use crate::cmd::run::runner_error;
 
 /// Arguments.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Print JSON (the only output format; kept for symmetry with the other benchmarks).
+    #[arg(long)]
+    json: bool,
+    /// Frames per sequence.
+    #[arg(long, default_value_t = 120)]
+    frames: u32,
+    /// Decoder threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Also play trials in a real window (needs DISPLAY, e.g. Xvfb) and report frame intervals.
+    #[arg(long)]
+    window: bool,
+    /// Trials played in the window.
+    #[arg(long, default_value_t = 2)]
+    trials: usize,
+    /// Work folder for the synthetic sets (default: a temporary folder, removed afterwards).
+    #[arg(long)]
+    work: Option<PathBuf>,
+}
+
+fn definition(dir: &Path, view: &str, samples: &str) -> anyhow::Result<ExperimentDefinition> {
+    let text = format!(
+        "format = \"blurlab-experiment/1\"\nname = \"bench-{view}\"\ntask = \"2afc\"\nquestion = \"Which?\"\nview = \"{view}\"\n\
+         [stimuli]\nmaterial = [2]\nspeed = [2]\nshutter = [3]\nsamples = {samples}\n[presentation]\ngap_ms = 500\n"
+    );
+    let path = dir.join(format!("bench-{view}.toml"));
+    std::fs::write(&path, text).with_context(|| path.display().to_string())?;
+    Ok(ExperimentDefinition::read(&path)?)
+}
 
 /// Runs the benchmark.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`bench playback` is not built yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let _ = args.json;
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get()));
+    let (work, temporary) = match &args.work {
+        Some(w) => (w.clone(), false),
+        None => (std::env::temp_dir().join(format!("blurlab-bench-playback-{}", std::process::id())), true),
+    };
+    std::fs::create_dir_all(&work).with_context(|| work.display().to_string())?;
+    let result = measure(&args, &work, threads);
+    if temporary {
+        let _ = std::fs::remove_dir_all(&work);
+    }
+    let report = result?;
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}
+
+fn measure(args: &Args, work: &Path, threads: usize) -> anyhow::Result<serde_json::Value> {
+    let mono = definition(work, "mono", "[3, 5]")?;
+    let stereo = definition(work, "stereo", "[3, 5]")?;
+    let mono_ids: Vec<StimulusId> = mono.all_stimuli().into_iter().collect();
+    let stereo_ids: Vec<StimulusId> = stereo.all_stimuli().into_iter().collect();
+    let set_dir = work.join("set");
+    if !set_dir.join("index.json").exists() {
+        let all: Vec<StimulusId> = mono_ids.iter().chain(&stereo_ids).copied().collect();
+        write_synthetic_set(&set_dir, &all, 640, 360, args.frames, 30.0).map_err(runner_error)?;
+    }
+    let mono_set = StimulusSet::open_for(&set_dir, &mono).map_err(runner_error)?;
+    let stereo_set = StimulusSet::open_for(&set_dir, &stereo).map_err(runner_error)?;
+    let gpu = Gpu::new();
+    let (gpu, adapter) = match gpu {
+        Ok(g) => {
+            let name = g.adapter.clone();
+            (Some(g), serde_json::Value::String(name))
+        }
+        Err(e) => (None, serde_json::json!({ "unavailable": e })),
+    };
+    let mut sequences = Vec::new();
+    for (set, id, mode) in [
+        (&mono_set, mono_ids[0], DisplayMode::Mono),
+        (&stereo_set, stereo_ids[0], DisplayMode::SbsFull),
+        (&stereo_set, stereo_ids[0], DisplayMode::Anaglyph),
+    ] {
+        // Once to warm the file cache, then measured.
+        let _ = decode_upload(set.sequence(&id), mode, threads, None).map_err(runner_error)?;
+        let r = decode_upload(set.sequence(&id), mode, threads, gpu.as_ref()).map_err(runner_error)?;
+        sequences.push(serde_json::json!({ "mode": mode.name(), "result": r }));
+    }
+    let memory = trial_memory(
+        stereo_set.sequence(&stereo_ids[0]),
+        stereo_set.sequence(&stereo_ids[1]),
+        DisplayMode::SbsFull,
+        threads,
+        gpu.as_ref(),
+    )
+    .map_err(runner_error)?;
+    drop(gpu);
+
+    let window = if !args.window {
+        serde_json::json!("not run (pass --window with a DISPLAY)")
+    } else if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
+        serde_json::json!("skipped: no DISPLAY")
+    } else {
+        let results = work.join("results");
+        let _ = std::fs::remove_dir_all(&results);
+        let mut config = runner::app::AppConfig::new(mono.clone(), mono_set.clone(), results);
+        config.participant = Some("BENCH".into());
+        config.seed = Some(1);
+        config.autopilot = Some(args.trials);
+        config.decode_threads = threads;
+        let app = runner::app::run_window(config, false).map_err(runner_error)?;
+        let session = app.session().context("the window closed before the session started")?;
+        let stats = frame_stats(session.path(), 30.0).map_err(runner_error)?;
+        let d = &app.refresh_intervals_ms;
+        let n = d.len().max(1) as f64;
+        let mean = d.iter().sum::<f64>() / n;
+        let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
+        let max = d.iter().copied().fold(0.0, f64::max);
+        serde_json::json!({
+            "trials": app.written.len(),
+            "frames": stats,
+            "refresh_intervals_ms": { "mean": mean, "sd": sd, "max": max, "count": d.len() },
+        })
+    };
+    Ok(serde_json::json!({
+        "benchmark": "playback",
+        "threads": threads,
+        "frames_per_sequence": args.frames,
+        "adapter": adapter,
+        "decode_upload": sequences,
+        "stereo_2afc_trial_memory": memory,
+        "window_playback": window,
+    }))
 }
