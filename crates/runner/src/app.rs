@@ -332,6 +332,7 @@ impl RunnerApp {
             match self.phase {
                 Phase::Start => self.start_session(),
                 Phase::Briefing | Phase::Break => self.next_trial(),
+                Phase::Done => self.phase = Phase::Closed,
                 _ => {}
             }
         }
