@@ -184,6 +184,10 @@ pub fn srange_quantile(t: usize, alpha: f64) -> Result<f64, SrangeError> {
         } else {
             ((1.0 - alpha) - e.cdf, -e.pdf)
         };
+        // The quadrature is accurate to about 1e-12: a smaller residual is converged.
+        if g.abs() < 1e-13 {
+            return Ok(w);
+        }
         if g > 0.0 {
             lo = w;
         } else {
@@ -193,7 +197,8 @@ pub fn srange_quantile(t: usize, alpha: f64) -> Result<f64, SrangeError> {
         if !(next > lo && next < hi) {
             next = 0.5 * (lo + hi);
         }
-        if (next - w).abs() < 1e-13 * w.max(1.0) || hi - lo < 1e-13 {
+        // Finer steps would only chase the quadrature's noise.
+        if (next - w).abs() < 1e-11 * w.max(1.0) || hi - lo < 1e-11 {
             return Ok(next);
         }
         w = next;
