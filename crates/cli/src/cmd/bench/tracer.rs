@@ -1,10 +1,74 @@
-//! `blurlab bench tracer` (not built yet).
+//! `blurlab bench tracer [--json]`: camera samples per second of the CPU tracer on the
+//! full-resolution M3-S3-T5 frame, and, side by side in the same run, Mitsuba 3
+//! (`scalar_rgb`, `path` integrator of the same depth) on the same static frame at the same
+//! samples per pixel, with the noise of both at that sample count
+//! (`render::tracer::bench::run_benchmark`). The peer runs as `python3
+//! bench/mitsuba_peer.py DIR`.
+
+use std::path::PathBuf;
+
+use render::tracer::bench::{BenchOptions, run_benchmark};
 
 /// Arguments.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Print the result as JSON (otherwise a short summary).
+    #[arg(long)]
+    json: bool,
+    /// Design file whose M3-S3-T5 frame is rendered.
+    #[arg(long, default_value = "stimuli/navarro2011.toml")]
+    design: PathBuf,
+    /// Samples per pixel of every render.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// Peer renderer: `mitsuba` or `none`.
+    #[arg(long, default_value = "mitsuba")]
+    peer: String,
+    /// Python interpreter that has the `mitsuba` package.
+    #[arg(long, default_value = "python3")]
+    python: String,
+    /// The peer's driver script.
+    #[arg(long, default_value = "bench/mitsuba_peer.py")]
+    peer_script: PathBuf,
+    /// Mitsuba sampler (`independent`, `stratified`, `multijitter`, `ldsampler`, ...).
+    #[arg(long, default_value = "independent")]
+    mitsuba_sampler: String,
+    /// Folder for the peer's scene and images (default: a new temporary folder).
+    #[arg(long)]
+    work: Option<PathBuf>,
+}
 
 /// Runs the benchmark.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`bench tracer` is not built yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let opts = BenchOptions {
+        design: args.design,
+        spp: args.spp,
+        peer: args.peer,
+        python: args.python,
+        peer_script: args.peer_script,
+        mitsuba_sampler: args.mitsuba_sampler,
+        work: args.work,
+    };
+    let result = run_benchmark(&opts)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&result)?);
+    } else {
+        println!(
+            "blurlab: {:.2} M camera samples/s (moving M3-S3-T5), {:.2} M/s static, noise {:.4}",
+            result["blurlab"]["moving_frame"]["camera_samples_per_second"].as_f64().unwrap_or(f64::NAN) / 1e6,
+            result["blurlab"]["static_frame"]["camera_samples_per_second"].as_f64().unwrap_or(f64::NAN) / 1e6,
+            result["blurlab"]["static_frame"]["noise_rms"].as_f64().unwrap_or(f64::NAN)
+        );
+        if let Some(c) = result.get("comparison") {
+            println!(
+                "mitsuba: {:.2} M/s, noise {:.4}; speed-up {:.1}x, noise ratio {:.2}",
+                result["mitsuba"]["camera_samples_per_second"].as_f64().unwrap_or(f64::NAN) / 1e6,
+                result["mitsuba"]["noise_rms"].as_f64().unwrap_or(f64::NAN),
+                c["speedup_static"].as_f64().unwrap_or(f64::NAN),
+                c["noise_ratio_blurlab_over_mitsuba"].as_f64().unwrap_or(f64::NAN)
+            );
+        }
+        println!("full set projected: {:.1} h", result["full_set_projection"]["hours"].as_f64().unwrap_or(f64::NAN));
+    }
+    Ok(())
 }
