@@ -501,14 +501,12 @@ pub fn verify_sequence(folder: &Path, design: &Design, preset: &Preset, id: &Sti
         if sha256_file(&folder.join(&f.png)).ok()? != f.png_sha256 {
             return None;
         }
-        match (&f.exr, &f.exr_sha256) {
-            (Some(name), Some(hash)) => {
-                if sha256_file(&folder.join(name)).ok()? != *hash {
-                    return None;
-                }
-            }
-            _ if exr => return None,
-            _ => {}
+        let exr_ok = match (&f.exr, &f.exr_sha256) {
+            (Some(name), Some(hash)) => sha256_file(&folder.join(name)).ok()? == *hash,
+            _ => !exr,
+        };
+        if !exr_ok {
+            return None;
         }
     }
     Some(sha256_hex(&bytes))
