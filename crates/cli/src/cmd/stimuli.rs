@@ -320,7 +320,7 @@ fn describe(a: DescribeArgs) -> anyhow::Result<()> {
 
 fn env(a: EnvArgs) -> anyhow::Result<()> {
     let width = a.width.unwrap_or(1024);
-    if width < 4 || width % 2 != 0 {
+    if width < 4 || !width.is_multiple_of(2) {
         return Err(BadInput(format!("--width {width}: must be an even number of at least 4")).into());
     }
     let image = render::env::default_map(width);
