@@ -33,7 +33,7 @@ pub enum SrangeError {
 
 const LOWER: f64 = -9.0;
 const UPPER: f64 = 9.0;
-const PANELS: usize = 24;
+const PANELS: usize = 12;
 const POINTS: usize = 16;
 
 struct Nodes {
