@@ -89,7 +89,7 @@ fn average(lut: &Lut, a: [u8; 4], b: [u8; 4]) -> [u8; 4] {
         linear_to_srgb((la[0] + lb[0]) * 0.5),
         linear_to_srgb((la[1] + lb[1]) * 0.5),
         linear_to_srgb((la[2] + lb[2]) * 0.5),
-        ((u16::from(a[3]) + u16::from(b[3]) + 1) / 2) as u8,
+        (u16::from(a[3]) + u16::from(b[3])).div_ceil(2) as u8,
     ]
 }
 
