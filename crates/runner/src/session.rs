@@ -376,10 +376,10 @@ mod tests {
         let mut s = Session::open(&d, &set, &results, "P01", &opts).unwrap();
         assert_eq!((s.number, s.next, s.resumed), (1, 0, false));
         let schedule = s.schedule.clone();
-        for k in 0..4 {
+        for (k, trial) in schedule.iter().enumerate().take(4) {
             let row = s.record(&Answer { slot: k % 2, response_ms: 100, ..Default::default() }).unwrap();
             assert_eq!(row.trial, k as u32);
-            assert_eq!(row.correct, Some(row.choice == schedule[k].shown[0]));
+            assert_eq!(row.correct, Some(row.choice == trial.shown[0]));
         }
         drop(s);
         let mut s = Session::open(&d, &set, &results, "P01", &SessionOptions::default()).unwrap();
