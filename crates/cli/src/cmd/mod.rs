@@ -9,11 +9,16 @@ pub mod stats;
 pub mod stimuli;
 
 /// Exit codes: 1 for any failure, 2 for bad input (usage, design or data files), 3 for
-/// output that could not be written (unwritable folder, full disk).
+/// output that could not be written (unwritable folder or file system, full disk).
 pub fn exit_code(error: &anyhow::Error) -> u8 {
     for cause in error.chain() {
         if let Some(io) = cause.downcast_ref::<std::io::Error>()
-            && matches!(io.kind(), std::io::ErrorKind::PermissionDenied | std::io::ErrorKind::StorageFull)
+            && matches!(
+                io.kind(),
+                std::io::ErrorKind::PermissionDenied
+                    | std::io::ErrorKind::ReadOnlyFilesystem
+                    | std::io::ErrorKind::StorageFull
+            )
         {
             return 3;
         }
