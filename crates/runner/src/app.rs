@@ -21,8 +21,8 @@ use study::experiment::{DisplayMode, ExperimentDefinition};
 use study::response::Task;
 
 use crate::RunnerError;
-use crate::calibration::{Calibration, Viewing, calibrate};
-use crate::playback::{Playback, Screen};
+use crate::calibration::{Calibration, Layout, Viewing, calibrate, fit_scale, visual_angle_deg};
+use crate::playback::{Playback, RefreshEstimate, Screen, estimate_refresh};
 use crate::schedule::Trial;
 use crate::session::{Answer, Session, SessionOptions, check_participant};
 use crate::stimuli::{Decoded, StimulusSet, decode_sequence};
@@ -44,8 +44,9 @@ pub struct AppConfig {
     pub display: DisplayMode,
     /// Viewing geometry for calibration.
     pub viewing: Viewing,
-    /// Display refresh rate assumed for pacing (Hz).
-    pub refresh_hz: f64,
+    /// Display refresh rate for pacing given by the experimenter (Hz, `--refresh-hz`);
+    /// `None`: measured on the start screen (see [`RefreshChoice`]).
+    pub refresh_hz: Option<f64>,
     /// Decoder threads.
     pub decode_threads: usize,
     /// Answer every trial with the first option as soon as it may be answered, and close
@@ -55,7 +56,7 @@ pub struct AppConfig {
 
 impl AppConfig {
     /// A configuration with the definition's display mode, the thesis's viewing set-up,
-    /// 60 Hz and all cores for decoding.
+    /// a measured refresh rate and all cores for decoding.
     pub fn new(definition: ExperimentDefinition, set: StimulusSet, results_dir: PathBuf) -> Self {
         let display = definition.display;
         AppConfig {
@@ -66,7 +67,7 @@ impl AppConfig {
             seed: None,
             display,
             viewing: Viewing::default(),
-            refresh_hz: 60.0,
+            refresh_hz: None,
             decode_threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
             autopilot: None,
         }
@@ -84,19 +85,130 @@ impl AppConfig {
             .map_err(|message| RunnerError::Input { what: "display calibration".into(), message })
     }
 
-    /// Display settings recorded in the log header.
-    pub fn display_json(&self) -> serde_json::Value {
+    /// Display settings recorded in the log header, with the refresh rate used for pacing.
+    pub fn display_json(&self, refresh: &RefreshChoice) -> serde_json::Value {
         let cal = self.calibration().ok();
         serde_json::json!({
             "mode": self.display.name(),
             "screen_width_cm": self.viewing.screen_width_cm,
             "screen_width_px": self.viewing.screen_width_px,
             "distance_cm": self.viewing.distance_cm,
-            "refresh_hz": self.refresh_hz,
+            "refresh_hz": refresh.hz,
+            "refresh_source": refresh.source,
+            "refresh_measured_hz": refresh.measured.map(|m| m.hz()),
+            "refresh_measured_spread": refresh.measured.map(|m| m.spread),
+            "refresh_measured_intervals": refresh.measured.map(|m| m.intervals),
             "scale": cal.as_ref().map(|c| c.scale),
             "visual_angle_deg": cal.as_ref().map(|c| c.angle_deg),
         })
     }
+
+    /// The inner size (points at 1 pixel per point) a window needs to show a trial at the
+    /// calibrated scale: the largest layout of the experiment plus labels and buttons, at
+    /// least 800x600 for the start screen.
+    pub fn window_size(&self) -> [f32; 2] {
+        let scale = self.calibration().map_or(1.0, |c| c.scale);
+        let (w, h) = self.set.sequences.values().next().map_or((640, 360), |s| {
+            crate::display::output_size(self.display, s.manifest.view, s.manifest.width, s.manifest.height)
+        });
+        let layout = layout_of(self.definition.task);
+        let content_w = f64::from(layout.columns) * f64::from(w) * scale + SLOT_GAP * f64::from(layout.columns - 1);
+        let content_h = f64::from(layout.rows) * f64::from(h) * scale + SLOT_GAP * f64::from(layout.rows - 1);
+        let chrome = chrome_lines(self.definition.task) as f64 * NOMINAL_LINE + NOMINAL_LINE + 2.0 * MARGIN;
+        [(content_w + 2.0 * MARGIN).max(800.0).ceil() as f32, (content_h + chrome).max(600.0).ceil() as f32]
+    }
+}
+
+/// Frames of the start screen whose times estimate the refresh rate (60 intervals).
+pub const REFRESH_CALIBRATION_FRAMES: usize = 61;
+/// The measurement ends after this long (seconds) even with fewer frames.
+pub const REFRESH_CALIBRATION_MAX_S: f64 = 3.0;
+/// The rate pacing assumes when it is neither given nor measurable.
+pub const ASSUMED_REFRESH_HZ: f64 = 60.0;
+
+/// The refresh rate used for frame pacing and where it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefreshChoice {
+    /// Hz.
+    pub hz: f64,
+    /// `--refresh-hz`, `measured`, or `assumed: WHY`.
+    pub source: String,
+    /// The start screen's measurement, when it was taken.
+    pub measured: Option<RefreshEstimate>,
+}
+
+impl RefreshChoice {
+    /// The experimenter's rate if given, else the measurement when it looks like a display
+    /// refresh, else [`ASSUMED_REFRESH_HZ`] with the reason.
+    pub fn choose(given: Option<f64>, measured: Option<RefreshEstimate>, measuring_done: bool) -> RefreshChoice {
+        let (hz, source) = match (given, measured) {
+            (Some(hz), _) => (hz, "--refresh-hz".to_owned()),
+            (None, Some(m)) if m.is_display_refresh() => (m.hz(), "measured".to_owned()),
+            (None, Some(m)) => (
+                ASSUMED_REFRESH_HZ,
+                format!(
+                    "assumed: the window redraws every {:.1} ms with a spread of {:.0}%, not a display refresh (no vsync, or drawing is slower than the display)",
+                    m.interval_ms,
+                    100.0 * m.spread
+                ),
+            ),
+            (None, None) if measuring_done => (ASSUMED_REFRESH_HZ, "assumed: too few frames to measure".to_owned()),
+            (None, None) => (ASSUMED_REFRESH_HZ, "assumed: not measured yet".to_owned()),
+        };
+        RefreshChoice { hz, source, measured }
+    }
+}
+
+/// Pixels between slots of a layout (egui's default item spacing).
+const SLOT_GAP: f64 = 8.0;
+/// The central panel's margin, points.
+const MARGIN: f64 = 8.0;
+/// A text line with spacing at egui's default style, points (for sizing the window only).
+const NOMINAL_LINE: f64 = 22.0;
+
+fn layout_of(task: Task) -> Layout {
+    match task {
+        Task::TwoAfc => Layout { columns: 1, rows: 1 },
+        Task::Match => Layout { columns: 2, rows: 2 },
+    }
+}
+
+/// Text lines of a trial screen around the stimuli: the trial label, a notice, the slot
+/// labels (one per row), the fit warning and the question (the buttons come on top).
+fn chrome_lines(task: Task) -> u32 {
+    2 + layout_of(task).rows + 2
+}
+
+/// The scale (screen pixels per stimulus pixel) at which a trial's stimuli of `stimulus`
+/// pixels fit the window, and a warning when that is below the calibration.
+fn fitted_scale(
+    ctx: &egui::Context,
+    calibration: Option<&Calibration>,
+    viewing: &Viewing,
+    eye_width: u32,
+    task: Task,
+    stimulus: [usize; 2],
+) -> (f64, Option<String>) {
+    let calibrated = calibration.map_or(1.0, |c| c.scale);
+    let ppp = f64::from(ctx.pixels_per_point());
+    let style = ctx.global_style();
+    let spacing = f64::from(style.spacing.item_spacing.y);
+    let line = f64::from(ctx.fonts_mut(|f| f.row_height(&egui::TextStyle::Body.resolve(&style)))) + spacing;
+    let button = f64::from(style.spacing.interact_size.y) + spacing;
+    let rect = ctx.content_rect();
+    let chrome = f64::from(chrome_lines(task)) * line + button + 2.0 * MARGIN;
+    let space = ((f64::from(rect.width()) - 2.0 * MARGIN) * ppp, (f64::from(rect.height()) - chrome) * ppp);
+    let stim = (stimulus[0] as f64, stimulus[1] as f64);
+    let (scale, reduced) = fit_scale(calibrated, stim, layout_of(task), space, SLOT_GAP * ppp);
+    let warning = reduced.then(|| {
+        format!(
+            "The window is too small for the calibrated size: stimuli are drawn at {:.0}% ({:.1} instead of {:.1} degrees). Enlarge the window or run full screen.",
+            100.0 * scale / calibrated,
+            visual_angle_deg(viewing, eye_width, scale),
+            visual_angle_deg(viewing, eye_width, calibrated)
+        )
+    });
+    (scale, warning)
 }
 
 /// Stimuli decoded and uploaded for one trial or example.
@@ -145,9 +257,13 @@ pub struct RunnerApp {
     message: Option<String>,
     /// Rows written by this window (for tests and the experimenter's summary).
     pub written: Vec<study::response::TrialRow>,
-    /// Intervals (ms) between successive refreshes while a trial plays (frame-pacing benchmarks).
+    /// Intervals (ms) between successive redraws while a trial plays (frame-pacing benchmarks).
     pub refresh_intervals_ms: Vec<f64>,
     last_refresh: Option<f64>,
+    /// Frame times of the start screen's refresh measurement (seconds).
+    present_times: Vec<f64>,
+    measured: Option<RefreshEstimate>,
+    measuring_done: bool,
 }
 
 impl RunnerApp {
@@ -168,6 +284,43 @@ impl RunnerApp {
             written: Vec::new(),
             refresh_intervals_ms: Vec::new(),
             last_refresh: None,
+            present_times: Vec::new(),
+            measured: None,
+            measuring_done: false,
+        }
+    }
+
+    /// The refresh rate used for pacing (measured on the start screen unless given).
+    pub fn refresh(&self) -> RefreshChoice {
+        RefreshChoice::choose(self.config.refresh_hz, self.measured, self.measuring_done)
+    }
+
+    /// Whether a close request (the window's close button) must ask first: while a session
+    /// is open and not finished, as Escape does. The answered trials are on disk already; the
+    /// question keeps a stray click from ending the session.
+    pub fn close_needs_confirmation(&self) -> bool {
+        self.session.is_some() && !matches!(self.phase, Phase::Done | Phase::Closed)
+    }
+
+    /// Whether the session may start: the refresh measurement is over or a rate was given.
+    pub fn ready_to_start(&self) -> bool {
+        self.measuring_done || self.config.refresh_hz.is_some()
+    }
+
+    /// Takes the time of a start-screen frame for the refresh measurement (frames are drawn
+    /// back to back while it runs, so their spacing is the display's refresh on a window
+    /// locked to it).
+    fn measure_refresh(&mut self, ctx: &egui::Context, now: f64) {
+        if self.measuring_done {
+            return;
+        }
+        self.present_times.push(now);
+        let first = self.present_times[0];
+        if self.present_times.len() >= REFRESH_CALIBRATION_FRAMES || now - first >= REFRESH_CALIBRATION_MAX_S {
+            self.measured = estimate_refresh(&self.present_times);
+            self.measuring_done = true;
+        } else {
+            ctx.request_repaint();
         }
     }
 
@@ -224,7 +377,8 @@ impl RunnerApp {
             .zip(&self.attributes)
             .map(|(a, sel)| (a.key.clone(), a.options[sel.unwrap_or(0)].clone()))
             .collect();
-        let options = SessionOptions { seed: self.config.seed, display: Some(self.config.display_json()), attributes };
+        let display = self.config.display_json(&self.refresh());
+        let options = SessionOptions { seed: self.config.seed, display: Some(display), attributes };
         match Session::open(
             &self.config.definition,
             &self.config.set,
@@ -274,17 +428,13 @@ impl RunnerApp {
     fn upload(ctx: &egui::Context, decoded: Vec<Decoded>, filter: TextureOptions) -> Loaded {
         let mut loaded = Loaded { textures: HashMap::new(), fps: HashMap::new(), size: HashMap::new() };
         for d in decoded {
+            loaded.size.insert(d.id, d.frames.first().map_or([1, 1], |f| f.size));
             let handles = d
                 .frames
-                .iter()
+                .into_iter()
                 .enumerate()
-                .map(|(i, f)| {
-                    let image =
-                        egui::ColorImage::from_rgba_unmultiplied([f.width as usize, f.height as usize], &f.pixels);
-                    ctx.load_texture(format!("{}#{i}", d.id), image, filter)
-                })
+                .map(|(i, image)| ctx.load_texture(format!("{}#{i}", d.id), image, filter))
                 .collect();
-            loaded.size.insert(d.id, d.frames.first().map_or([1, 1], |f| [f.width as usize, f.height as usize]));
             loaded.fps.insert(d.id, d.fps);
             loaded.textures.insert(d.id, handles);
         }
@@ -330,9 +480,12 @@ impl RunnerApp {
         if ui.input(|i| i.key_pressed(Key::Escape)) && !matches!(self.phase, Phase::Closed) {
             self.confirm_quit = !self.confirm_quit;
         }
+        if matches!(self.phase, Phase::Start) {
+            self.measure_refresh(&ctx, now);
+        }
         if self.config.autopilot.is_some() {
             match self.phase {
-                Phase::Start => self.start_session(),
+                Phase::Start if self.ready_to_start() => self.start_session(),
                 Phase::Briefing | Phase::Break => self.next_trial(),
                 Phase::Done => self.phase = Phase::Closed,
                 _ => {}
@@ -365,13 +518,13 @@ impl RunnerApp {
         if let Some(m) = &self.message {
             ui.colored_label(Color32::from_rgb(230, 160, 60), m);
         }
-        let filter = self.filter();
         match &mut self.phase {
             Phase::Start => self.start_screen(ui),
             Phase::Briefing => self.briefing_screen(ui),
             Phase::LoadingExample(index, job) => {
                 let index = *index;
                 if let Some(decoded) = Self::poll(ui, job, &mut self.message) {
+                    let filter = self.filter(&ctx, Task::TwoAfc, &decoded);
                     let loaded = Self::upload(&ctx, decoded, filter);
                     self.phase = Phase::Example { index, loaded, playback: None };
                 }
@@ -381,8 +534,9 @@ impl RunnerApp {
             Phase::Loading(trial, job) => {
                 ui.label(format!("Preparing trial {}...", trial.index + 1));
                 if let Some(decoded) = Self::poll(ui, job, &mut self.message) {
-                    let loaded = Self::upload(&ctx, decoded, filter);
                     let trial = trial.clone();
+                    let filter = self.filter(&ctx, trial.task, &decoded);
+                    let loaded = Self::upload(&ctx, decoded, filter);
                     self.phase = Phase::Presenting(Box::new(Presenting { trial, loaded, playback: None, replays: 0 }));
                 }
                 ctx.request_repaint();
@@ -415,12 +569,31 @@ impl RunnerApp {
         }
     }
 
-    fn filter(&self) -> TextureOptions {
-        if self.calibration.as_ref().is_none_or(|c| c.integer) {
+    /// Sharp texels at an integer calibration that fits the window; smoothing otherwise.
+    fn filter(&self, ctx: &egui::Context, task: Task, decoded: &[Decoded]) -> TextureOptions {
+        let reduced =
+            decoded.first().and_then(|d| d.frames.first().map(|f| (d.eye_width, f.size))).is_some_and(|(eye, size)| {
+                fitted_scale(ctx, self.calibration.as_ref(), &self.config.viewing, eye, task, size).1.is_some()
+            });
+        if !reduced && self.calibration.as_ref().is_none_or(|c| c.integer) {
             TextureOptions::NEAREST
         } else {
             TextureOptions::LINEAR
         }
+    }
+
+    /// The size in points of a stimulus drawn in a trial (or example) of `task`, and the
+    /// warning when the window is too small for the calibrated size.
+    fn drawn_size(&self, ctx: &egui::Context, task: Task, id: &StimulusId, size: [usize; 2]) -> (Vec2, Option<String>) {
+        let eye = self
+            .config
+            .set
+            .sequences
+            .get(id)
+            .map_or(size[0] as u32, |s| crate::display::eye_width(s.manifest.view, s.manifest.width));
+        let (scale, warning) = fitted_scale(ctx, self.calibration.as_ref(), &self.config.viewing, eye, task, size);
+        let points = scale as f32 / ctx.pixels_per_point();
+        (Vec2::new(size[0] as f32, size[1] as f32) * points, warning)
     }
 
     fn poll(ui: &mut egui::Ui, job: &mut LoadJob, message: &mut Option<String>) -> Option<Vec<Decoded>> {
@@ -482,8 +655,43 @@ impl RunnerApp {
                 ui.colored_label(Color32::YELLOW, "Calibration failed: check the screen size and distance.");
             }
         }
+        let refresh = self.refresh();
+        match (&refresh.measured, self.config.refresh_hz) {
+            (_, None) if !self.measuring_done => {
+                ui.label("Display refresh: measuring...");
+            }
+            (Some(m), given) => {
+                let text = format!(
+                    "Display refresh: {:.2} Hz measured (median of {} frame intervals, {:.2} ms, spread {:.1}%)",
+                    m.hz(),
+                    m.intervals,
+                    m.interval_ms,
+                    100.0 * m.spread
+                );
+                ui.label(text);
+                if given.is_some() {
+                    ui.label(format!("Pacing uses {:.2} Hz from --refresh-hz.", refresh.hz));
+                } else if !m.is_display_refresh() {
+                    ui.colored_label(
+                        Color32::YELLOW,
+                        format!("Warning: pacing uses {:.0} Hz, {}", refresh.hz, refresh.source),
+                    );
+                }
+            }
+            (None, Some(hz)) => {
+                ui.label(format!("Display refresh: {hz:.2} Hz (--refresh-hz)"));
+            }
+            (None, None) => {
+                ui.colored_label(
+                    Color32::YELLOW,
+                    format!("Warning: pacing uses {:.0} Hz, {}", refresh.hz, refresh.source),
+                );
+            }
+        }
         ui.separator();
-        if ui.button("Start").clicked() || ui.input(|i| i.key_pressed(Key::Enter)) {
+        let ready = self.ready_to_start();
+        let clicked = ui.add_enabled(ready, egui::Button::new("Start")).clicked();
+        if ready && (clicked || ui.input(|i| i.key_pressed(Key::Enter))) {
             self.start_session();
         }
     }
@@ -514,20 +722,32 @@ impl RunnerApp {
     }
 
     fn example_screen(&mut self, ui: &mut egui::Ui, now: f64) {
+        let (scale_points, warning) = match &self.phase {
+            Phase::Example { index, loaded, .. } => {
+                let id = self.config.definition.briefing.examples[*index].stimulus;
+                let size = loaded.size[&id];
+                let (drawn, warning) = self.drawn_size(ui.ctx(), Task::TwoAfc, &id, size);
+                (drawn.x / size[0].max(1) as f32, warning)
+            }
+            _ => return,
+        };
         let Phase::Example { index, loaded, playback } = &mut self.phase else { return };
         let example = &self.config.definition.briefing.examples[*index];
         let id = example.stimulus;
         let (frames, fps) = (loaded.textures[&id].len(), loaded.fps[&id]);
-        let pb = playback.get_or_insert_with(|| Playback::single(frames, fps, 1, self.config.refresh_hz, now));
+        let refresh_hz = RefreshChoice::choose(self.config.refresh_hz, self.measured, self.measuring_done).hz;
+        let pb = playback.get_or_insert_with(|| Playback::single(frames, fps, 1, refresh_hz, now));
         ui.heading(&example.label);
         ui.label(&example.description);
-        let scale = self.calibration.as_ref().map_or(1.0, |c| c.scale) as f32 / ui.ctx().pixels_per_point();
         let size = loaded.size[&id];
-        let size = Vec2::new(size[0] as f32, size[1] as f32) * scale;
+        let size = Vec2::new(size[0] as f32, size[1] as f32) * scale_points;
+        if let Some(w) = &warning {
+            ui.colored_label(Color32::YELLOW, w);
+        }
         match pb.update(now) {
             Screen::Frame { frame, .. } => {
                 ui.image(egui::load::SizedTexture::new(loaded.textures[&id][frame].id(), size));
-                ui.ctx().request_repaint();
+                repaint_at(ui.ctx(), pb, now);
             }
             _ => {
                 blank(ui, size, "");
@@ -546,13 +766,21 @@ impl RunnerApp {
     }
 
     fn trial_screen(&mut self, ui: &mut egui::Ui, now: f64) {
-        let refresh = self.config.refresh_hz;
+        let refresh = self.refresh().hz;
         let pres = &self.config.definition.presentation;
         let (loops, gap, replay_ok) = (pres.loops, pres.gap_ms, pres.replay);
         let keys = self.config.definition.keys.clone();
         let question = self.config.definition.question.clone();
         let progress = self.session.as_ref().map(|s| s.counted_progress()).unwrap_or_default();
-        let scale = self.calibration.as_ref().map_or(1.0, |c| c.scale) as f32 / ui.ctx().pixels_per_point();
+        let (scale, warning) = match &self.phase {
+            Phase::Presenting(p) => {
+                let id = p.trial.shown[0];
+                let size = p.loaded.size[&id];
+                let (drawn, warning) = self.drawn_size(ui.ctx(), p.trial.task, &id, size);
+                (drawn.x / size[0].max(1) as f32, warning)
+            }
+            _ => return,
+        };
         let Phase::Presenting(p) = &mut self.phase else { return };
         let trial = p.trial.clone();
         let loaded = &p.loaded;
@@ -568,12 +796,15 @@ impl RunnerApp {
                 self.refresh_intervals_ms.push((now - prev) * 1000.0);
             }
             self.last_refresh = Some(now);
-            ui.ctx().request_repaint();
+            repaint_at(ui.ctx(), pb, now);
         }
         if trial.practice {
             ui.label(RichText::new("Practice trial (not counted)").italics());
         } else {
             ui.label(format!("Trial {} of {}", progress.0 + 1, progress.1));
+        }
+        if let Some(w) = &warning {
+            ui.colored_label(Color32::YELLOW, w);
         }
         let size_of = |id: &StimulusId| {
             let s = loaded.size[id];
@@ -658,6 +889,15 @@ impl RunnerApp {
     }
 }
 
+/// Asks for the next redraw when the screen next changes (the next frame or the end of a
+/// gap), instead of redrawing continuously: a frame in between would show the same image.
+fn repaint_at(ctx: &egui::Context, playback: &Playback, now: f64) {
+    match playback.next_change() {
+        Some(t) => ctx.request_repaint_after(std::time::Duration::from_secs_f64((t - now).max(0.0))),
+        None => ctx.request_repaint(),
+    }
+}
+
 fn blank(ui: &mut egui::Ui, size: Vec2, text: &str) {
     let (rect, _) = ui.allocate_exact_size(size, egui::Sense::hover());
     ui.painter().rect_filled(rect, 0.0, Color32::from_gray(40));
@@ -668,6 +908,10 @@ fn blank(ui: &mut egui::Ui, size: Vec2, text: &str) {
 
 impl eframe::App for RunnerApp {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        if ui.input(|i| i.viewport().close_requested()) && self.close_needs_confirmation() {
+            ui.ctx().send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.confirm_quit = true;
+        }
         egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| self.draw_ui(ui));
     }
 }
@@ -678,7 +922,7 @@ pub fn run_window(config: AppConfig, fullscreen: bool) -> Result<RunnerApp, Runn
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_title(title.clone())
-            .with_inner_size([1400.0, 1000.0])
+            .with_inner_size(config.window_size())
             .with_fullscreen(fullscreen),
         ..Default::default()
     };

@@ -40,7 +40,8 @@ impl Gpu {
             .frames
             .iter()
             .map(|f| {
-                let size = wgpu::Extent3d { width: f.width, height: f.height, depth_or_array_layers: 1 };
+                let (width, height) = (f.size[0] as u32, f.size[1] as u32);
+                let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
                 let texture = self.device.create_texture(&wgpu::TextureDescriptor {
                     label: Some("frame"),
                     size,
@@ -58,11 +59,11 @@ impl Gpu {
                         origin: wgpu::Origin3d::ZERO,
                         aspect: wgpu::TextureAspect::All,
                     },
-                    &f.pixels,
+                    f.as_raw(),
                     wgpu::TexelCopyBufferLayout {
                         offset: 0,
-                        bytes_per_row: Some(4 * f.width),
-                        rows_per_image: Some(f.height),
+                        bytes_per_row: Some(4 * width),
+                        rows_per_image: Some(height),
                     },
                     size,
                 );
@@ -94,7 +95,15 @@ pub struct DecodeUpload {
     pub upload_ms: Option<f64>,
     /// Bytes of decoded pixels.
     pub bytes: usize,
+    /// Milliseconds until the sequence is on the GPU (decode + upload; decode alone without
+    /// an adapter).
+    pub ready_ms: f64,
+    /// Whether `ready_ms` is under [`READY_TARGET_MS`].
+    pub target_met: bool,
 }
+
+/// The target: a trial's stimuli ready in under 1 s.
+pub const READY_TARGET_MS: f64 = 1000.0;
 
 /// Decodes (and uploads, given a device) one sequence, timing both.
 pub fn decode_upload(
@@ -115,11 +124,14 @@ pub fn decode_upload(
         ms
     });
     let first = &decoded.frames[0];
+    let ready_ms = decode_ms + upload_ms.unwrap_or(0.0);
     Ok(DecodeUpload {
+        ready_ms,
+        target_met: ready_ms < READY_TARGET_MS,
         id: decoded.id.to_string(),
         frames: decoded.frames.len(),
-        width: first.width,
-        height: first.height,
+        width: first.size[0] as u32,
+        height: first.size[1] as u32,
         threads,
         decode_ms,
         upload_ms,
@@ -135,11 +147,22 @@ pub fn memory_kib() -> Option<(u64, u64)> {
     Some((field("VmRSS:")?, field("VmHWM:")?))
 }
 
-/// Memory held while a stereo 2AFC trial's two sequences are decoded and uploaded.
+/// Time and memory to get a 2AFC trial's two sequences ready, as the window does it (both
+/// decoded, then both uploaded).
 #[derive(Clone, Debug, Serialize)]
-pub struct TrialMemory {
+pub struct TrialLoad {
     /// Display mode used.
     pub mode: String,
+    /// The two stimuli.
+    pub ids: [String; 2],
+    /// Milliseconds to decode and transform both sequences.
+    pub decode_ms: f64,
+    /// Milliseconds to upload both (None without an adapter).
+    pub upload_ms: Option<f64>,
+    /// Milliseconds until both are on the GPU.
+    pub ready_ms: f64,
+    /// Whether `ready_ms` is under [`READY_TARGET_MS`].
+    pub target_met: bool,
     /// Bytes of decoded pixels of both sequences (the CPU copies the window frees after upload).
     pub decoded_bytes: usize,
     /// Bytes of texture data on the GPU (one RGBA8 texel per pixel).
@@ -152,26 +175,37 @@ pub struct TrialMemory {
     pub rss_textures_only_kib: u64,
 }
 
-/// Loads two sequences as a stereo 2AFC trial does and reports memory.
-pub fn trial_memory(
+/// Loads two sequences as a 2AFC trial does and reports time and memory.
+pub fn trial_load(
     a: &Sequence,
     b: &Sequence,
     mode: DisplayMode,
     threads: usize,
     gpu: Option<&Gpu>,
-) -> Result<TrialMemory, RunnerError> {
+) -> Result<TrialLoad, RunnerError> {
     let before = memory_kib().map_or(0, |m| m.0);
     let progress = AtomicUsize::new(0);
+    let t = Instant::now();
     let da = decode_sequence(a, mode, &progress, threads)?;
     let db = decode_sequence(b, mode, &progress, threads)?;
+    let decode_ms = t.elapsed().as_secs_f64() * 1e3;
+    let t = Instant::now();
     let textures: Vec<_> = gpu.map(|g| [g.upload(&da), g.upload(&db)]).into_iter().collect();
+    let upload_ms = gpu.map(|_| t.elapsed().as_secs_f64() * 1e3);
+    let ready_ms = decode_ms + upload_ms.unwrap_or(0.0);
     let loaded = memory_kib().map_or(0, |m| m.0);
+    let ids = [da.id.to_string(), db.id.to_string()];
     let decoded_bytes = da.bytes() + db.bytes();
     drop((da, db));
     let textures_only = memory_kib().map_or(0, |m| m.0);
     drop(textures);
-    Ok(TrialMemory {
+    Ok(TrialLoad {
         mode: mode.name().into(),
+        ids,
+        decode_ms,
+        upload_ms,
+        ready_ms,
+        target_met: ready_ms < READY_TARGET_MS,
         decoded_bytes,
         texture_bytes: if gpu.is_some() { decoded_bytes } else { 0 },
         rss_before_kib: before,

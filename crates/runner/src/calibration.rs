@@ -45,6 +45,35 @@ pub struct Calibration {
     pub warning: Option<String>,
 }
 
+/// The visual angle in degrees of a stimulus `stimulus_px` wide drawn at `scale`.
+pub fn visual_angle_deg(viewing: &Viewing, stimulus_px: u32, scale: f64) -> f64 {
+    let cm = f64::from(stimulus_px) * scale * viewing.screen_width_cm / f64::from(viewing.screen_width_px);
+    2.0 * (cm / (2.0 * viewing.distance_cm)).atan().to_degrees()
+}
+
+/// How the stimuli of a trial are laid out: `columns x rows` slots of one stimulus each
+/// (2AFC: one slot; matching: the reference above two candidates, counted as 2 x 2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Layout {
+    /// Slots side by side.
+    pub columns: u32,
+    /// Rows of slots.
+    pub rows: u32,
+}
+
+/// The scale at which stimuli of `stimulus` pixels (width, height of the displayed image) are
+/// drawn in `layout` when `space` screen pixels (width, height) are left for them after the
+/// labels and buttons, and `gap` pixels separate slots: the calibrated `scale`, or less when
+/// that does not fit. Returns the scale and whether it was reduced.
+pub fn fit_scale(scale: f64, stimulus: (f64, f64), layout: Layout, space: (f64, f64), gap: f64) -> (f64, bool) {
+    let need_w = f64::from(layout.columns) * stimulus.0;
+    let need_h = f64::from(layout.rows) * stimulus.1;
+    let gaps_w = gap * f64::from(layout.columns.saturating_sub(1));
+    let gaps_h = gap * f64::from(layout.rows.saturating_sub(1));
+    let fit = ((space.0 - gaps_w) / need_w).min((space.1 - gaps_h) / need_h).max(0.05);
+    if fit + 1e-9 < scale { (fit, true) } else { (scale, false) }
+}
+
 /// Calibrates a stimulus `stimulus_px` wide (one eye) to `angle_deg`.
 pub fn calibrate(viewing: &Viewing, stimulus_px: u32, angle_deg: f64) -> Result<Calibration, String> {
     let Viewing { screen_width_cm, screen_width_px, distance_cm } = *viewing;
@@ -61,10 +90,7 @@ pub fn calibrate(viewing: &Viewing, stimulus_px: u32, angle_deg: f64) -> Result<
     let target_px = target_cm * px_per_cm;
     let exact = target_px / f64::from(stimulus_px);
     let snapped = if exact >= 1.0 { exact.round() } else { 1.0 / (1.0 / exact).round() };
-    let angle_of = |scale: f64| {
-        let cm = f64::from(stimulus_px) * scale / px_per_cm;
-        2.0 * (cm / (2.0 * distance_cm)).atan().to_degrees()
-    };
+    let angle_of = |scale: f64| visual_angle_deg(viewing, stimulus_px, scale);
     let snapped_error = (angle_of(snapped) - angle_deg).abs() / angle_deg;
     let (scale, integer, mut warning) = if snapped_error <= INTEGER_TOLERANCE {
         (snapped, true, None)
@@ -116,5 +142,25 @@ mod tests {
         let tiny = Viewing { screen_width_cm: 10.0, screen_width_px: 300, distance_cm: 60.0 };
         assert!(calibrate(&tiny, 640, 14.4).unwrap().warning.unwrap().contains("screen is 300 px wide"));
         assert!(calibrate(&Viewing { distance_cm: 0.0, ..v }, 640, 14.4).unwrap_err().contains("viewing distance"));
+    }
+
+    #[test]
+    fn fit_scale_shrinks_only_what_does_not_fit() {
+        let two_afc = Layout { columns: 1, rows: 1 };
+        let matching = Layout { columns: 2, rows: 2 };
+        // 640x360 at scale 1 fits a 1264x560 space in one slot.
+        assert_eq!(fit_scale(1.0, (640.0, 360.0), two_afc, (1264.0, 560.0), 8.0), (1.0, false));
+        // Matching needs 1288x728 at scale 1: the height limits it to (560 - 8) / 720.
+        let (s, reduced) = fit_scale(1.0, (640.0, 360.0), matching, (1264.0, 560.0), 8.0);
+        assert!(reduced && (s - 552.0 / 720.0).abs() < 1e-12, "{s}");
+        // Width-limited: stereo side by side 1280 wide in a 1264 wide space.
+        let (s, reduced) = fit_scale(1.0, (1280.0, 360.0), two_afc, (1264.0, 900.0), 8.0);
+        assert!(reduced && (s - 1264.0 / 1280.0).abs() < 1e-12);
+        // A scale-2 calibration on a large space stays 2.
+        assert_eq!(fit_scale(2.0, (640.0, 360.0), two_afc, (3000.0, 2000.0), 8.0), (2.0, false));
+        // The angle at a reduced scale.
+        let v = Viewing::default();
+        assert!((visual_angle_deg(&v, 640, 1.0) - calibrate(&v, 640, 14.4).unwrap().angle_deg).abs() < 1e-12);
+        assert!(visual_angle_deg(&v, 640, 0.5) < 7.3);
     }
 }

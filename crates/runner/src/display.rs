@@ -28,8 +28,7 @@ pub struct Rgba8 {
 impl Rgba8 {
     /// A new image filled with one colour.
     pub fn filled(width: u32, height: u32, rgba: [u8; 4]) -> Self {
-        let pixels = rgba.iter().copied().cycle().take(width as usize * height as usize * 4).collect();
-        Rgba8 { width, height, pixels }
+        Rgba8 { width, height, pixels: rgba.repeat(width as usize * height as usize) }
     }
 
     /// The pixel at (x, y).
@@ -73,41 +72,83 @@ pub fn linear_to_srgb(l: f32) -> u8 {
     (c * 255.0 + 0.5) as u8
 }
 
-struct Lut([f32; 256]);
-impl Lut {
+/// Fast sRGB conversions: a 256-entry table from sRGB codes to linear light, and for the
+/// way back the smallest linear value of every output code (found once by bisection over the
+/// exact [`linear_to_srgb`]) plus a 4096-bin table that starts the search one code or less
+/// below the answer. [`Tables::encode`] therefore returns exactly what [`linear_to_srgb`]
+/// returns (it is monotonic), with no `powf` per pixel, in debug builds too.
+struct Tables {
+    to_linear: [f32; 256],
+    /// `threshold[c]`: the smallest `l` in [0, 1] with `linear_to_srgb(l) >= c` (c >= 1).
+    threshold: [f32; 256],
+    /// `coarse[i] = linear_to_srgb(i / BINS)`, a lower bound of the code of any `l` in bin `i`.
+    coarse: Vec<u8>,
+}
+
+const BINS: usize = 4096;
+
+static TABLES: std::sync::LazyLock<Tables> = std::sync::LazyLock::new(Tables::new);
+
+impl Tables {
     fn new() -> Self {
-        Lut(std::array::from_fn(|i| srgb_to_linear(i as u8)))
+        let to_linear = std::array::from_fn(|i| srgb_to_linear(i as u8));
+        // Bisection over the bit patterns of non-negative floats, which are ordered like the floats.
+        let threshold = std::array::from_fn(|c| {
+            let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if usize::from(linear_to_srgb(f32::from_bits(mid))) >= c { hi = mid } else { lo = mid + 1 }
+            }
+            f32::from_bits(lo)
+        });
+        let coarse = (0..=BINS).map(|i| linear_to_srgb(i as f32 / BINS as f32)).collect();
+        Tables { to_linear, threshold, coarse }
     }
-    fn lin(&self, p: [u8; 4]) -> [f32; 3] {
-        [self.0[p[0] as usize], self.0[p[1] as usize], self.0[p[2] as usize]]
+
+    fn lin(&self, p: &[u8]) -> [f32; 3] {
+        [self.to_linear[usize::from(p[0])], self.to_linear[usize::from(p[1])], self.to_linear[usize::from(p[2])]]
+    }
+
+    /// [`linear_to_srgb`] by table.
+    fn encode(&self, l: f32) -> u8 {
+        let l = if l.is_finite() { l.clamp(0.0, 1.0) } else { 0.0 };
+        let mut c = self.coarse[(l * BINS as f32) as usize];
+        while c < 255 && l >= self.threshold[usize::from(c) + 1] {
+            c += 1;
+        }
+        c
     }
 }
 
-fn average(lut: &Lut, a: [u8; 4], b: [u8; 4]) -> [u8; 4] {
-    let (la, lb) = (lut.lin(a), lut.lin(b));
-    [
-        linear_to_srgb((la[0] + lb[0]) * 0.5),
-        linear_to_srgb((la[1] + lb[1]) * 0.5),
-        linear_to_srgb((la[2] + lb[2]) * 0.5),
-        (u16::from(a[3]) + u16::from(b[3])).div_ceil(2) as u8,
-    ]
+/// [`linear_to_srgb`] through lookup tables (the same result, much faster).
+pub fn linear_to_srgb_fast(l: f32) -> u8 {
+    TABLES.encode(l)
+}
+
+fn average(t: &Tables, a: &[u8], b: &[u8], out: &mut [u8]) {
+    let (la, lb) = (t.lin(a), t.lin(b));
+    out[0] = t.encode((la[0] + lb[0]) * 0.5);
+    out[1] = t.encode((la[1] + lb[1]) * 0.5);
+    out[2] = t.encode((la[2] + lb[2]) * 0.5);
+    out[3] = (u16::from(a[3]) + u16::from(b[3])).div_ceil(2) as u8;
 }
 
 /// One pixel of the Dubois red-cyan anaglyph from a left and a right sRGB pixel.
 pub fn anaglyph_pixel(left: [u8; 4], right: [u8; 4]) -> [u8; 4] {
-    let lut = Lut::new();
-    anaglyph_with(&lut, left, right)
+    let mut out = [0u8; 4];
+    anaglyph_with(&TABLES, &left, &right, &mut out);
+    out
 }
 
-fn anaglyph_with(lut: &Lut, left: [u8; 4], right: [u8; 4]) -> [u8; 4] {
-    let (l, r) = (lut.lin(left), lut.lin(right));
-    let mut out = [0u8; 4];
-    for (c, o) in out.iter_mut().take(3).enumerate() {
-        let v: f32 = (0..3).map(|k| DUBOIS_LEFT[c][k] * l[k] + DUBOIS_RIGHT[c][k] * r[k]).sum();
-        *o = linear_to_srgb(v);
+fn anaglyph_with(t: &Tables, left: &[u8], right: &[u8], out: &mut [u8]) {
+    let (l, r) = (t.lin(left), t.lin(right));
+    let (a, b) = (&DUBOIS_LEFT, &DUBOIS_RIGHT);
+    for c in 0..3 {
+        let v =
+            (a[c][0] * l[0] + b[c][0] * r[0]) + (a[c][1] * l[1] + b[c][1] * r[1]) + (a[c][2] * l[2] + b[c][2] * r[2]);
+        out[c] = t.encode(v);
     }
     out[3] = 255;
-    out
 }
 
 /// The size of the displayed image for a frame of `width x height` in `view`.
@@ -121,61 +162,71 @@ pub fn output_size(mode: DisplayMode, view: View, width: u32, height: u32) -> (u
 }
 
 /// Transforms a decoded frame into the image shown in `mode`. Mono frames are returned
-/// unchanged whatever the mode; stereo frames need an even width.
-pub fn transform(mode: DisplayMode, view: View, frame: &Rgba8) -> Rgba8 {
+/// unchanged (not copied) whatever the mode; stereo frames need an even width.
+pub fn transform(mode: DisplayMode, view: View, frame: Rgba8) -> Rgba8 {
     if view == View::Mono || mode == DisplayMode::SbsFull {
-        return frame.clone();
+        return frame;
     }
-    let eye_w = frame.width / 2;
-    let h = frame.height;
-    let left = |x: u32, y: u32| frame.get(x, y);
-    let right = |x: u32, y: u32| frame.get(eye_w + x, y);
-    let lut = Lut::new();
+    let t: &Tables = &TABLES;
+    let eye_w = frame.width as usize / 2;
+    let h = frame.height as usize;
+    let row_bytes = frame.width as usize * 4;
+    let eye_bytes = eye_w * 4;
+    // Row y of the left and right eye.
+    let eyes = |y: usize| {
+        let row = &frame.pixels[y * row_bytes..(y + 1) * row_bytes];
+        (&row[..eye_bytes], &row[eye_bytes..2 * eye_bytes])
+    };
+    // Opaque black where a squeeze of an odd size leaves a last column or row unfilled.
+    let mut out = Rgba8::filled(eye_w as u32, h as u32, [0, 0, 0, 255]);
     match mode {
         DisplayMode::SbsFull => unreachable!("handled above"),
-        DisplayMode::Mono => frame.crop(0, 0, eye_w, h),
-        DisplayMode::Anaglyph => {
-            let mut out = Rgba8::filled(eye_w, h, [0, 0, 0, 255]);
-            for y in 0..h {
-                for x in 0..eye_w {
-                    out.set(x, y, anaglyph_with(&lut, left(x, y), right(x, y)));
-                }
+        DisplayMode::Mono => {
+            for (y, o) in out.pixels.chunks_exact_mut(eye_bytes).enumerate() {
+                o.copy_from_slice(eyes(y).0);
             }
-            out
         }
         DisplayMode::RowInterleaved => {
-            let mut out = Rgba8::filled(eye_w, h, [0, 0, 0, 255]);
-            for y in 0..h {
-                for x in 0..eye_w {
-                    out.set(x, y, if y % 2 == 0 { left(x, y) } else { right(x, y) });
+            for (y, o) in out.pixels.chunks_exact_mut(eye_bytes).enumerate() {
+                let (l, r) = eyes(y);
+                o.copy_from_slice(if y % 2 == 0 { l } else { r });
+            }
+        }
+        DisplayMode::Anaglyph => {
+            for (y, o) in out.pixels.chunks_exact_mut(eye_bytes).enumerate() {
+                let (l, r) = eyes(y);
+                for ((o, l), r) in o.chunks_exact_mut(4).zip(l.chunks_exact(4)).zip(r.chunks_exact(4)) {
+                    anaglyph_with(t, l, r, o);
                 }
             }
-            out
         }
         DisplayMode::SbsHalf => {
-            // Each eye of width eye_w becomes eye_w / 2 wide: output is eye_w wide in all.
+            // Each eye of width eye_w becomes eye_w / 2 wide: the output is eye_w wide in all.
             let half = eye_w / 2;
-            let mut out = Rgba8::filled(eye_w, h, [0, 0, 0, 255]);
-            for y in 0..h {
-                for x in 0..half {
-                    out.set(x, y, average(&lut, left(2 * x, y), left(2 * x + 1, y)));
-                    out.set(half + x, y, average(&lut, right(2 * x, y), right(2 * x + 1, y)));
+            for (y, o) in out.pixels.chunks_exact_mut(eye_bytes).enumerate() {
+                let (l, r) = eyes(y);
+                let (ol, or) = o.split_at_mut(half * 4);
+                for (src, dst) in [(l, ol), (r, or)] {
+                    for (pair, d) in src.chunks_exact(8).zip(dst.chunks_exact_mut(4)) {
+                        average(t, &pair[..4], &pair[4..], d);
+                    }
                 }
             }
-            out
         }
         DisplayMode::TopBottom => {
             let half = h / 2;
-            let mut out = Rgba8::filled(eye_w, h, [0, 0, 0, 255]);
-            for y in 0..half {
-                for x in 0..eye_w {
-                    out.set(x, y, average(&lut, left(x, 2 * y), left(x, 2 * y + 1)));
-                    out.set(x, half + y, average(&lut, right(x, 2 * y), right(x, 2 * y + 1)));
+            let (top, bottom) = out.pixels.split_at_mut(half * eye_bytes);
+            for (y, (ot, ob)) in top.chunks_exact_mut(eye_bytes).zip(bottom.chunks_exact_mut(eye_bytes)).enumerate() {
+                let ((l0, r0), (l1, r1)) = (eyes(2 * y), eyes(2 * y + 1));
+                for x in (0..eye_bytes).step_by(4) {
+                    let p = x..x + 4;
+                    average(t, &l0[p.clone()], &l1[p.clone()], &mut ot[p.clone()]);
+                    average(t, &r0[p.clone()], &r1[p.clone()], &mut ob[p]);
                 }
             }
-            out
         }
     }
+    out
 }
 
 /// The width in source pixels of one eye's image: the width that must subtend the
@@ -226,7 +277,7 @@ mod tests {
         // A pure red left-eye pixel with black right gives 0.437 red.
         assert_eq!(anaglyph_pixel([255, 0, 0, 255], [0, 0, 0, 255]), [linear_to_srgb(0.437), 0, 0, 255]);
         // The transform covers each pixel pair of a whole frame.
-        let out = transform(DisplayMode::Anaglyph, View::Stereo, &stereo([255, 0, 0, 255], [0, 255, 255, 255], 3, 2));
+        let out = transform(DisplayMode::Anaglyph, View::Stereo, stereo([255, 0, 0, 255], [0, 255, 255, 255], 3, 2));
         assert_eq!((out.width, out.height), (3, 2));
         let one = anaglyph_pixel([255, 0, 0, 255], [0, 255, 255, 255]);
         assert!(out.pixels.chunks(4).all(|p| p == one));
@@ -236,7 +287,7 @@ mod tests {
     fn row_interleave_takes_even_rows_from_the_left_eye() {
         let l = [10, 20, 30, 255];
         let r = [200, 210, 220, 255];
-        let out = transform(DisplayMode::RowInterleaved, View::Stereo, &stereo(l, r, 3, 5));
+        let out = transform(DisplayMode::RowInterleaved, View::Stereo, stereo(l, r, 3, 5));
         assert_eq!((out.width, out.height), (3, 5));
         for y in 0..5 {
             for x in 0..3 {
@@ -254,23 +305,94 @@ mod tests {
                 f.set(x, y, [255, 255, 255, 255]);
             }
         }
-        let half = transform(DisplayMode::SbsHalf, View::Stereo, &f);
+        let half = transform(DisplayMode::SbsHalf, View::Stereo, f.clone());
         assert_eq!((half.width, half.height), (4, 4));
         let mid = linear_to_srgb(0.5);
         assert_eq!(half.get(0, 0), [mid, mid, mid, 255]);
         assert_eq!(half.get(1, 3), [mid, mid, mid, 255]);
         assert_eq!(half.get(2, 0), [100, 100, 100, 255]);
-        let tb = transform(DisplayMode::TopBottom, View::Stereo, &f);
+        let tb = transform(DisplayMode::TopBottom, View::Stereo, f.clone());
         assert_eq!((tb.width, tb.height), (4, 4));
         assert_eq!(tb.get(0, 0), [0, 0, 0, 255]);
         assert_eq!(tb.get(1, 1), [255, 255, 255, 255]);
         assert_eq!(tb.get(3, 2), [100, 100, 100, 255]);
-        assert_eq!(transform(DisplayMode::Mono, View::Stereo, &f), f.crop(0, 0, 4, 4));
-        assert_eq!(transform(DisplayMode::SbsFull, View::Stereo, &f), f);
-        assert_eq!(transform(DisplayMode::Anaglyph, View::Mono, &f), f);
+        assert_eq!(transform(DisplayMode::Mono, View::Stereo, f.clone()), f.crop(0, 0, 4, 4));
+        assert_eq!(transform(DisplayMode::SbsFull, View::Stereo, f.clone()), f);
+        assert_eq!(transform(DisplayMode::Anaglyph, View::Mono, f.clone()), f);
         for mode in DisplayMode::ALL {
-            let out = transform(mode, View::Stereo, &f);
+            let out = transform(mode, View::Stereo, f.clone());
             assert_eq!(output_size(mode, View::Stereo, 8, 4), (out.width, out.height), "{mode}");
         }
+    }
+
+    /// The exact formulas in f64 (`powf` per value), the reference of the table path.
+    fn exact_linear(v: u8) -> f64 {
+        let c = f64::from(v) / 255.0;
+        if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    }
+    fn exact_code(l: f64) -> f64 {
+        let l = l.clamp(0.0, 1.0);
+        255.0 * if l <= 0.003_130_8 { l * 12.92 } else { 1.055 * l.powf(1.0 / 2.4) - 0.055 }
+    }
+
+    #[test]
+    fn table_encoding_equals_the_formula() {
+        // Dense samples over [0, 1] (every 331st float bit pattern) and the edges of every code.
+        let mut checked = 0;
+        for bits in (0..=1.0f32.to_bits()).step_by(331) {
+            let l = f32::from_bits(bits);
+            assert_eq!(linear_to_srgb_fast(l), linear_to_srgb(l), "l = {l:e}");
+            checked += 1;
+        }
+        assert!(checked > 3_000_000);
+        for c in 1..=255u8 {
+            let t = TABLES.threshold[usize::from(c)];
+            let below = f32::from_bits(t.to_bits() - 1);
+            assert_eq!((linear_to_srgb(t), linear_to_srgb(below)), (c, c - 1), "code {c}");
+            assert_eq!((linear_to_srgb_fast(t), linear_to_srgb_fast(below)), (c, c - 1), "code {c}");
+        }
+        for l in [-1.0, 1.5, f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            assert_eq!(linear_to_srgb_fast(l), linear_to_srgb(l), "{l}");
+        }
+    }
+
+    #[test]
+    fn fast_anaglyph_is_within_one_code_of_the_exact_formula() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+        let mut px = || -> [u8; 4] {
+            let v = rng.next_u32().to_le_bytes();
+            [v[0], v[1], v[2], 255]
+        };
+        let mut pairs: Vec<([u8; 4], [u8; 4])> = (0..200_000).map(|_| (px(), px())).collect();
+        // Greys and primaries, where clamping and the linear toe of the curve meet.
+        for v in [0u8, 1, 2, 5, 10, 11, 12, 50, 128, 200, 254, 255] {
+            pairs.push(([v, v, v, 255], [v, v, v, 255]));
+            pairs.push(([v, 0, 0, 255], [0, v, v, 255]));
+        }
+        let mut frame = Rgba8::filled(2 * pairs.len() as u32, 1, [0, 0, 0, 255]);
+        for (x, (l, r)) in pairs.iter().enumerate() {
+            frame.set(x as u32, 0, *l);
+            frame.set((pairs.len() + x) as u32, 0, *r);
+        }
+        let out = transform(DisplayMode::Anaglyph, View::Stereo, frame);
+        let mut exact_matches = 0;
+        for (x, (l, r)) in pairs.iter().enumerate() {
+            let got = out.get(x as u32, 0);
+            for c in 0..3 {
+                let v: f64 = (0..3)
+                    .map(|k| {
+                        f64::from(DUBOIS_LEFT[c][k]) * exact_linear(l[k])
+                            + f64::from(DUBOIS_RIGHT[c][k]) * exact_linear(r[k])
+                    })
+                    .sum();
+                let want = exact_code(v);
+                assert!((f64::from(got[c]) - want).abs() <= 1.0, "{l:?} {r:?} channel {c}: {} vs {want}", got[c]);
+                exact_matches += usize::from(got[c] == (want + 0.5) as u8);
+            }
+            assert_eq!(got[3], 255);
+        }
+        // Rounding differs from the f64 formula only where it sits on a half code.
+        assert!(exact_matches as f64 > 0.999 * 3.0 * pairs.len() as f64, "{exact_matches}");
     }
 }

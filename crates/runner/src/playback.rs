@@ -118,6 +118,21 @@ impl Playback {
         self.step >= self.steps.len()
     }
 
+    /// When the screen next changes (the next frame or the end of a gap is due), in seconds on
+    /// the clock of `new`; `None` when the presentation is over. Call after [`Playback::update`].
+    pub fn next_change(&self) -> Option<f64> {
+        let step = *self.steps.get(self.step)?;
+        Some(match step {
+            Step::Gap => self.step_start + self.gap_s,
+            Step::Play(slot) => {
+                let (frames, fps) = self.slots[slot];
+                let total = frames * self.loops as usize;
+                let next = self.last.map_or(0, |l| l + 1).min(total);
+                self.step_start + next as f64 / fps
+            }
+        })
+    }
+
     /// What to show at the refresh at time `now` (seconds, same clock as `new`).
     pub fn update(&mut self, now: f64) -> Screen {
         loop {
@@ -170,6 +185,59 @@ impl Playback {
                 self.finished_at = Some(self.step_start);
             }
         }
+    }
+}
+
+/// The display's refresh interval estimated from the times of successive presents.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct RefreshEstimate {
+    /// Median interval between successive presents, milliseconds.
+    pub interval_ms: f64,
+    /// Intervals measured.
+    pub intervals: usize,
+    /// Median absolute deviation of the intervals over their median: near 0 when the window
+    /// is locked to a regular refresh, large when presents follow render times instead.
+    pub spread: f64,
+}
+
+/// Fewest intervals [`estimate_refresh`] accepts.
+pub const MIN_REFRESH_INTERVALS: usize = 20;
+/// Refresh rates taken as a display's (Hz); a measurement outside is not a refresh.
+pub const PLAUSIBLE_REFRESH_HZ: std::ops::RangeInclusive<f64> = 23.0..=500.0;
+/// Largest [`RefreshEstimate::spread`] of a window locked to the display's refresh.
+pub const MAX_REFRESH_SPREAD: f64 = 0.1;
+
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    if n % 2 == 1 { values[n / 2] } else { 0.5 * (values[n / 2 - 1] + values[n / 2]) }
+}
+
+/// Estimates the refresh interval from present times (seconds, increasing) as the median of
+/// the frame-to-frame intervals, so a few stalls (a missed refresh doubles an interval) or
+/// doubled presents do not move it. `None` with fewer than [`MIN_REFRESH_INTERVALS`] positive
+/// intervals.
+pub fn estimate_refresh(times_s: &[f64]) -> Option<RefreshEstimate> {
+    let mut d: Vec<f64> =
+        times_s.windows(2).map(|w| (w[1] - w[0]) * 1000.0).filter(|x| x.is_finite() && *x > 0.0).collect();
+    if d.len() < MIN_REFRESH_INTERVALS {
+        return None;
+    }
+    let m = median(&mut d);
+    let mut dev: Vec<f64> = d.iter().map(|x| (x - m).abs()).collect();
+    let mad = median(&mut dev);
+    Some(RefreshEstimate { interval_ms: m, intervals: d.len(), spread: mad / m })
+}
+
+impl RefreshEstimate {
+    /// The refresh rate, Hz.
+    pub fn hz(&self) -> f64 {
+        1000.0 / self.interval_ms
+    }
+
+    /// Whether it looks like a display refresh: regular and in [`PLAUSIBLE_REFRESH_HZ`].
+    pub fn is_display_refresh(&self) -> bool {
+        PLAUSIBLE_REFRESH_HZ.contains(&self.hz()) && self.spread <= MAX_REFRESH_SPREAD
     }
 }
 
@@ -242,5 +310,52 @@ mod tests {
         assert_eq!(p.update(0.060), Screen::Frame { slot: 0, frame: 1 });
         assert_eq!(p.dropped, 1);
         assert!(p.presented[1].late);
+    }
+
+    #[test]
+    fn next_change_is_the_next_due_frame_or_the_gap_end() {
+        let mut p = Playback::new(Task::TwoAfc, vec![(2, 30.0), (2, 30.0)], 1, 100, 60.0, 1.0);
+        assert_eq!(p.update(1.0), Screen::Frame { slot: 0, frame: 0 });
+        assert!((p.next_change().unwrap() - (1.0 + 1.0 / 30.0)).abs() < 1e-12);
+        assert_eq!(p.update(1.04), Screen::Frame { slot: 0, frame: 1 });
+        // After the last frame of slot 0, the next change is the start of the gap.
+        assert!((p.next_change().unwrap() - (1.0 + 2.0 / 30.0)).abs() < 1e-12);
+        assert_eq!(p.update(1.07), Screen::Gap);
+        assert!((p.next_change().unwrap() - (1.0 + 2.0 / 30.0 + 0.1)).abs() < 1e-12);
+        assert_eq!(p.update(1.18), Screen::Frame { slot: 1, frame: 0 });
+        p.update(2.0);
+        assert_eq!(p.next_change(), None);
+    }
+
+    #[test]
+    fn refresh_estimate_is_the_median_interval_and_ignores_outliers() {
+        // 60 Hz with jitter of +-0.3 ms, three missed refreshes (33 ms) and a 250 ms stall.
+        let mut t = vec![0.0];
+        for i in 1..=120 {
+            let jitter = 0.0003 * f64::from(i % 3) - 0.0003;
+            let gap = match i {
+                17 | 40 | 90 => 2.0 / 60.0,
+                60 => 0.25,
+                _ => 1.0 / 60.0,
+            };
+            let last = t.last().copied().unwrap();
+            t.push(last + gap + jitter * 0.5);
+        }
+        let e = estimate_refresh(&t).unwrap();
+        assert_eq!(e.intervals, 120);
+        assert!((e.hz() - 60.0).abs() < 0.3, "{e:?}");
+        assert!(e.spread < 0.02 && e.is_display_refresh(), "{e:?}");
+        // 144 Hz.
+        let t: Vec<f64> = (0..50).map(|i| f64::from(i) / 144.0).collect();
+        assert!((estimate_refresh(&t).unwrap().hz() - 144.0).abs() < 1e-6);
+        // Too few intervals, and repeated or out-of-order times, give no estimate.
+        assert_eq!(estimate_refresh(&t[..MIN_REFRESH_INTERVALS]), None);
+        assert_eq!(estimate_refresh(&[1.0; 40]), None);
+        // A window redrawing whenever rendering ends (8 Hz, irregular) is not a display refresh.
+        let slow: Vec<f64> = (0..40).map(|i| f64::from(i) * 0.125 + 0.04 * f64::from(i % 4)).collect();
+        let e = estimate_refresh(&slow).unwrap();
+        assert!(!e.is_display_refresh(), "{e:?}");
+        let regular_slow: Vec<f64> = (0..40).map(|i| f64::from(i) * 0.125).collect();
+        assert!(!estimate_refresh(&regular_slow).unwrap().is_display_refresh());
     }
 }

@@ -98,7 +98,8 @@ impl StimulusSet {
     }
 }
 
-/// A sequence decoded and transformed for display.
+/// A sequence decoded and transformed for display, each frame in the form egui uploads (so
+/// the window moves it to the GPU without another conversion on its thread).
 #[derive(Clone, Debug)]
 pub struct Decoded {
     /// The stimulus.
@@ -108,28 +109,68 @@ pub struct Decoded {
     /// Width of one eye's image in source pixels (what calibration scales).
     pub eye_width: u32,
     /// Display frames in order.
-    pub frames: Vec<Rgba8>,
+    pub frames: Vec<egui::ColorImage>,
 }
 
 impl Decoded {
     /// Bytes held by the frames.
     pub fn bytes(&self) -> usize {
-        self.frames.iter().map(|f| f.pixels.len()).sum()
+        self.frames.iter().map(|f| f.pixels.len() * 4).sum()
     }
 }
 
-/// Decodes one PNG frame to RGBA8, checking its size against the manifest.
-pub fn decode_frame(path: &Path, width: u32, height: u32) -> Result<Rgba8, RunnerError> {
-    let bad = |message: String| RunnerError::Sequence { path: path.to_owned(), message };
-    let img = image::open(path).map_err(|e| bad(format!("cannot decode PNG: {e}")))?.to_rgba8();
-    if img.width() != width || img.height() != height {
-        return Err(bad(format!("frame is {}x{}, the manifest says {width}x{height}", img.width(), img.height())));
+/// The display image as egui holds it. Rendered frames are opaque, so their bytes are
+/// already premultiplied; others are premultiplied by egui.
+pub fn to_color_image(frame: &Rgba8) -> egui::ColorImage {
+    let size = [frame.width as usize, frame.height as usize];
+    if frame.pixels.chunks_exact(4).all(|p| p[3] == 255) {
+        egui::ColorImage::from_rgba_premultiplied(size, &frame.pixels)
+    } else {
+        egui::ColorImage::from_rgba_unmultiplied(size, &frame.pixels)
     }
-    Ok(Rgba8 { width, height, pixels: img.into_raw() })
+}
+
+/// Decodes one PNG frame to RGBA8, checking its size against the manifest. The file is read
+/// whole and decoded straight into one buffer (8-bit grey, grey-alpha, RGB or RGBA; RGB, the
+/// format of rendered frames, is widened to RGBA in place without a second image).
+pub fn decode_frame(path: &Path, width: u32, height: u32) -> Result<Rgba8, RunnerError> {
+    use image::ImageDecoder;
+    let bad = |message: String| RunnerError::Sequence { path: path.to_owned(), message };
+    let bytes = std::fs::read(path).map_err(|source| RunnerError::Io { path: path.to_owned(), source })?;
+    let decoder = image::codecs::png::PngDecoder::new(std::io::Cursor::new(bytes))
+        .map_err(|e| bad(format!("cannot decode PNG: {e}")))?;
+    let (w, h) = decoder.dimensions();
+    if (w, h) != (width, height) {
+        return Err(bad(format!("frame is {w}x{h}, the manifest says {width}x{height}")));
+    }
+    let color = decoder.color_type();
+    let channels = match color {
+        image::ColorType::L8 => 1,
+        image::ColorType::La8 => 2,
+        image::ColorType::Rgb8 => 3,
+        image::ColorType::Rgba8 => 4,
+        other => return Err(bad(format!("frame is {other:?}, expected 8-bit sRGB (grey, RGB or RGBA)"))),
+    };
+    let n = width as usize * height as usize;
+    let mut pixels = vec![0u8; n * 4];
+    decoder.read_image(&mut pixels[..n * channels]).map_err(|e| bad(format!("cannot decode PNG: {e}")))?;
+    // Widen in place from the back, so no source pixel is overwritten before it is read.
+    for i in (0..n).rev() {
+        let s = i * channels;
+        let p = match channels {
+            1 => [pixels[s], pixels[s], pixels[s], 255],
+            2 => [pixels[s], pixels[s], pixels[s], pixels[s + 1]],
+            3 => [pixels[s], pixels[s + 1], pixels[s + 2], 255],
+            _ => break,
+        };
+        pixels[i * 4..i * 4 + 4].copy_from_slice(&p);
+    }
+    Ok(Rgba8 { width, height, pixels })
 }
 
 /// Decodes every frame of `sequence` and applies the display mode, counting decoded frames
-/// in `progress`. Frames are decoded on up to `threads` threads.
+/// in `progress`. Up to `threads` threads take frames from a shared counter (so a slow frame
+/// does not hold up a whole share); the first error stops the others.
 pub fn decode_sequence(
     sequence: &Sequence,
     mode: DisplayMode,
@@ -139,29 +180,41 @@ pub fn decode_sequence(
     let m = &sequence.manifest;
     let paths = sequence.frame_paths();
     let threads = threads.clamp(1, paths.len().max(1));
-    let chunk = paths.len().div_ceil(threads);
-    let results: Vec<Result<Vec<Rgba8>, RunnerError>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = paths
-            .chunks(chunk)
-            .map(|part| {
-                scope.spawn(move || {
-                    part.iter()
-                        .map(|p| {
-                            let frame = decode_frame(p, m.width, m.height)?;
-                            let shown = transform(mode, m.view, &frame);
-                            progress.fetch_add(1, Ordering::Relaxed);
-                            Ok(shown)
-                        })
-                        .collect::<Result<Vec<Rgba8>, RunnerError>>()
+    let next = AtomicUsize::new(0);
+    let failed = std::sync::atomic::AtomicBool::new(false);
+    let results: Vec<Vec<(usize, Result<egui::ColorImage, RunnerError>)>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads)
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut done = Vec::new();
+                    while !failed.load(Ordering::Relaxed) {
+                        let i = next.fetch_add(1, Ordering::Relaxed);
+                        let Some(p) = paths.get(i) else { break };
+                        let frame =
+                            decode_frame(p, m.width, m.height).map(|f| to_color_image(&transform(mode, m.view, f)));
+                        failed.fetch_or(frame.is_err(), Ordering::Relaxed);
+                        progress.fetch_add(usize::from(frame.is_ok()), Ordering::Relaxed);
+                        done.push((i, frame));
+                    }
+                    done
                 })
             })
             .collect();
         handles.into_iter().map(|h| h.join().expect("decoder thread panicked")).collect()
     });
-    let mut frames = Vec::with_capacity(paths.len());
-    for part in results {
-        frames.extend(part?);
+    let mut slots: Vec<Option<egui::ColorImage>> = (0..paths.len()).map(|_| None).collect();
+    let mut first_error: Option<(usize, RunnerError)> = None;
+    for (i, frame) in results.into_iter().flatten() {
+        match frame {
+            Ok(f) => slots[i] = Some(f),
+            Err(e) if first_error.as_ref().is_none_or(|(j, _)| i < *j) => first_error = Some((i, e)),
+            Err(_) => {}
+        }
     }
+    if let Some((_, e)) = first_error {
+        return Err(e);
+    }
+    let frames = slots.into_iter().map(|f| f.expect("every frame decoded when none failed")).collect();
     Ok(Decoded { id: m.id, fps: m.fps, eye_width: crate::display::eye_width(m.view, m.width), frames })
 }
 
@@ -298,7 +351,12 @@ mod tests {
         let progress = AtomicUsize::new(0);
         let decoded = decode_sequence(seq, DisplayMode::Mono, &progress, 2).unwrap();
         assert_eq!((decoded.frames.len(), progress.load(Ordering::Relaxed)), (3, 3));
-        assert_eq!((decoded.frames[0].width, decoded.frames[0].height, decoded.eye_width), (8, 4, 8));
+        assert_eq!((decoded.frames[0].size, decoded.eye_width), ([8, 4], 8));
+        // The bar's pixels arrive as written: RGB widened to opaque RGBA.
+        let frame = decode_frame(&seq.frame_paths()[0], 8, 4).unwrap();
+        let bar = frame.get(0, 1);
+        assert_eq!((bar[2], bar[3]), (200, 255));
+        assert_eq!(decoded.frames[0].as_raw(), &frame.pixels[..]);
 
         std::fs::remove_file(dir.path().join("M2-S2-T4-A5/frame-0002.png")).unwrap();
         let e = StimulusSet::open_for(dir.path(), &d).unwrap_err().to_string();
@@ -315,7 +373,7 @@ mod tests {
         let seq = Sequence { folder: folder.clone(), manifest };
         let progress = AtomicUsize::new(0);
         let d = decode_sequence(&seq, DisplayMode::Anaglyph, &progress, 1).unwrap();
-        assert_eq!((d.frames[0].width, d.frames[0].height, d.eye_width), (8, 4, 8));
+        assert_eq!((d.frames[0].size, d.eye_width), ([8, 4], 8));
         let mut wrong = seq.clone();
         wrong.manifest.height = 5;
         let e = decode_sequence(&wrong, DisplayMode::SbsFull, &progress, 1).unwrap_err().to_string();

@@ -55,10 +55,14 @@ options = ["yes", "no"]
 }
 
 fn config(dir: &Path, task: &str) -> AppConfig {
+    config_sized(dir, task, 16, 8)
+}
+
+fn config_sized(dir: &Path, task: &str, width: u32, height: u32) -> AppConfig {
     let d = definition(dir, task);
     let ids: Vec<StimulusId> = d.all_stimuli().into_iter().collect();
     let set_dir = dir.join("set");
-    write_synthetic_set(&set_dir, &ids, 16, 8, 3, 30.0).unwrap();
+    write_synthetic_set(&set_dir, &ids, width, height, 3, 30.0).unwrap();
     let set = StimulusSet::open_for(&set_dir, &d).unwrap();
     let mut c = AppConfig::new(d, set, dir.join("results"));
     c.seed = Some(5);
@@ -67,10 +71,27 @@ fn config(dir: &Path, task: &str) -> AppConfig {
 }
 
 fn harness(config: AppConfig) -> Harness<'static, RunnerApp> {
-    Harness::builder()
-        .with_size([1400.0, 1100.0])
-        .with_step_dt(1.0 / 60.0)
-        .build_eframe(move |_cc| RunnerApp::new(config))
+    harness_sized(config, [1400.0, 1100.0])
+}
+
+/// A window of `size` points whose start screen has measured the refresh rate (the harness
+/// steps at 60 Hz).
+fn harness_sized(config: AppConfig, size: [f32; 2]) -> Harness<'static, RunnerApp> {
+    let mut h =
+        Harness::builder().with_size(size).with_step_dt(1.0 / 60.0).build_eframe(move |_cc| RunnerApp::new(config));
+    assert!(!h.state().ready_to_start());
+    h.run_steps(runner::app::REFRESH_CALIBRATION_FRAMES);
+    assert!(h.state().ready_to_start());
+    h
+}
+
+/// Sends the window a close request (its close button) and steps; returns whether the app
+/// cancelled the close.
+fn close_request(h: &mut Harness<'static, RunnerApp>) -> bool {
+    let root = egui::ViewportId::ROOT;
+    h.input_mut().viewports.get_mut(&root).unwrap().events.push(egui::ViewportEvent::Close);
+    h.step();
+    h.output().viewport_output[&root].commands.iter().any(|c| matches!(c, egui::ViewportCommand::CancelClose))
 }
 
 /// Steps until the window shows `screen` (loading runs on real threads, so steps also wait).
@@ -204,7 +225,13 @@ fn scripted_participant_2afc_practice_replay_quit_and_resume() {
     let log = SessionLog::read(&path).unwrap();
     assert!(!log.completed);
     assert_eq!(log.header.get("attributes"), Some(r#"{"cg_experience":"no"}"#));
-    assert!(log.header.get("display").unwrap().contains(r#""mode":"mono""#));
+    let display: serde_json::Value = serde_json::from_str(log.header.get("display").unwrap()).unwrap();
+    assert_eq!(display["mode"], "mono");
+    // The refresh rate was measured on the start screen (the harness steps at 60 Hz).
+    assert_eq!(display["refresh_source"], "measured");
+    // (egui's clock advances by the f32 step 1/60, hence 59.999997 Hz.)
+    assert!((display["refresh_hz"].as_f64().unwrap() - 60.0).abs() < 1e-4, "{display}");
+    assert_eq!(display["refresh_measured_intervals"], runner::app::REFRESH_CALIBRATION_FRAMES - 1);
     let r = rows(&path);
     assert_eq!(r.len(), 3);
     assert!(r[0].practice && !r[1].practice);
@@ -266,4 +293,75 @@ fn scripted_participant_matching_by_key_and_button() {
     }
     // The practice reference is the first of the practice pair.
     assert_eq!(r[0].shown[0].to_string(), "M2-S2-T1-A1");
+}
+
+#[test]
+fn closing_the_window_during_a_session_asks_first() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(config(dir.path(), "2afc"));
+    // Before a session starts, the close button closes.
+    assert!(!close_request(&mut h));
+    assert!(!h.state().confirming_quit());
+    start(&mut h, "C01");
+    assert_eq!(h.state().screen(), "briefing");
+    assert!(close_request(&mut h), "close not cancelled on the briefing");
+    assert!(h.state().confirming_quit());
+    h.run_steps(2);
+    h.get_by_label("Continue").click();
+    h.step();
+    assert!(!h.state().confirming_quit());
+    h.run_steps(2);
+    h.get_by_label("Begin practice").click();
+    until(&mut h, "answer");
+    h.key_press(Key::Num1);
+    h.step();
+    // During a trial the close is cancelled and the quit question shows; Quit then closes.
+    until(&mut h, "presenting");
+    assert!(close_request(&mut h), "close not cancelled during a trial");
+    assert!(h.state().confirming_quit());
+    h.run_steps(2);
+    assert!(h.query_by_label("Quit the experiment?").is_some());
+    h.get_by_label("Quit").click();
+    h.step();
+    assert_eq!(h.state().screen(), "closed");
+    assert!(!close_request(&mut h), "a closed session must let the window close");
+    let path = h.state().session().unwrap().path().to_owned();
+    drop(h);
+    // The answered practice trial is on disk; the trial on screen is not.
+    let r = rows(&path);
+    assert_eq!(r.len(), 1);
+    assert!(r[0].practice);
+}
+
+/// Steps through a matching trial of 640x360 stimuli in a window of `size`; returns the
+/// notice shown and the lowest edge of the answer buttons and labels.
+fn matching_trial_in(size: [f32; 2]) -> (bool, f32) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness_sized(config_sized(dir.path(), "match", 640, 360), size);
+    start(&mut h, "W01");
+    h.get_by_label("Begin practice").click();
+    until(&mut h, "answer");
+    h.run_steps(2);
+    let warned = h.query_by_label_contains("The window is too small for the calibrated size").is_some();
+    let bottom =
+        ["Reference", "Candidate A", "Candidate B", "Which one?", "Candidate A [1]", "Candidate B [2]", "Replay [R]"]
+            .iter()
+            .map(|l| h.get_by_label(l).rect().bottom())
+            .fold(0.0, f32::max);
+    // The answer still works.
+    h.get_by_label("Candidate B [2]").click();
+    h.step();
+    assert_eq!(rows(h.state().session().unwrap().path()).len(), 1);
+    (warned, bottom)
+}
+
+#[test]
+fn matching_fits_a_1280x720_window_with_a_warning() {
+    let (warned, bottom) = matching_trial_in([1280.0, 720.0]);
+    assert!(warned, "no warning that the stimuli are drawn smaller than calibrated");
+    assert!(bottom <= 720.0, "the layout ends at {bottom} px, below the 720 px window");
+    // A window as large as the calibrated layout needs shows it unscaled, without a warning.
+    let (warned, bottom) = matching_trial_in([1400.0, 1000.0]);
+    assert!(!warned);
+    assert!(bottom > 720.0 && bottom <= 1000.0, "{bottom}");
 }

@@ -55,9 +55,11 @@ pub struct Args {
     /// Viewing distance in centimetres (calibration).
     #[arg(long, default_value_t = Viewing::default().distance_cm)]
     distance_cm: f64,
-    /// Display refresh rate in Hz (frame pacing).
-    #[arg(long, default_value_t = 60.0)]
-    refresh_hz: f64,
+    /// Display refresh rate in Hz for frame pacing. Default: measured on the start screen
+    /// (the median interval of its redraws); 60 Hz is assumed, with a warning on the display
+    /// check, when the window is not locked to a regular refresh.
+    #[arg(long)]
+    refresh_hz: Option<f64>,
     /// Open the window full screen.
     #[arg(long)]
     fullscreen: bool,
@@ -88,6 +90,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Err(BadInput(format!("--display {display}: {} is a mono experiment", definition.name)).into());
     }
     runner::session::check_participant(&args.participant).map_err(runner_error)?;
+    if let Some(hz) = args.refresh_hz
+        && !(hz.is_finite() && (1.0..=1000.0).contains(&hz))
+    {
+        return Err(BadInput(format!("--refresh-hz {hz}: expected a refresh rate in Hz between 1 and 1000")).into());
+    }
 
     if let Some(model_text) = &args.simulate {
         let model: ObserverModel = model_text.parse().map_err(runner_error)?;
