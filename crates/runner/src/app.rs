@@ -159,6 +159,10 @@ impl RefreshChoice {
     }
 }
 
+/// How often the loading screen redraws its progress bar: not continuously, so the window
+/// leaves the cores to the frame decoders (it is checked again within this delay).
+const LOADING_REDRAW: std::time::Duration = std::time::Duration::from_millis(15);
+
 /// Pixels between slots of a layout (egui's default item spacing).
 const SLOT_GAP: f64 = 8.0;
 /// The central panel's margin, points.
@@ -527,8 +531,10 @@ impl RunnerApp {
                     let filter = self.filter(&ctx, Task::TwoAfc, &decoded);
                     let loaded = Self::upload(&ctx, decoded, filter);
                     self.phase = Phase::Example { index, loaded, playback: None };
+                    ctx.request_repaint();
+                } else {
+                    ctx.request_repaint_after(LOADING_REDRAW);
                 }
-                ctx.request_repaint();
             }
             Phase::Example { .. } => self.example_screen(ui, now),
             Phase::Loading(trial, job) => {
@@ -538,8 +544,10 @@ impl RunnerApp {
                     let filter = self.filter(&ctx, trial.task, &decoded);
                     let loaded = Self::upload(&ctx, decoded, filter);
                     self.phase = Phase::Presenting(Box::new(Presenting { trial, loaded, playback: None, replays: 0 }));
+                    ctx.request_repaint();
+                } else {
+                    ctx.request_repaint_after(LOADING_REDRAW);
                 }
-                ctx.request_repaint();
             }
             Phase::Presenting(_) => self.trial_screen(ui, now),
             Phase::Break => {

@@ -74,15 +74,18 @@ pub fn linear_to_srgb(l: f32) -> u8 {
 
 /// Fast sRGB conversions: a 256-entry table from sRGB codes to linear light, and for the
 /// way back the smallest linear value of every output code (found once by bisection over the
-/// exact [`linear_to_srgb`]) plus a 4096-bin table that starts the search one code or less
-/// below the answer. [`Tables::encode`] therefore returns exactly what [`linear_to_srgb`]
-/// returns (it is monotonic), with no `powf` per pixel, in debug builds too.
+/// exact [`linear_to_srgb`]) plus a 4096-bin table of the code at the start of each bin. No
+/// bin spans more than one code boundary (the curve's steepest slope is 12.92 * 255 codes per
+/// unit, 0.8 codes per bin), so one comparison with the next code's threshold finishes the
+/// lookup. [`Tables::encode`] therefore returns exactly what [`linear_to_srgb`] returns (it
+/// is monotonic), with no `powf` per pixel, in debug builds too.
 struct Tables {
     to_linear: [f32; 256],
-    /// `threshold[c]`: the smallest `l` in [0, 1] with `linear_to_srgb(l) >= c` (c >= 1).
-    threshold: [f32; 256],
-    /// `coarse[i] = linear_to_srgb(i / BINS)`, a lower bound of the code of any `l` in bin `i`.
-    coarse: Vec<u8>,
+    /// `threshold[c]`: the smallest `l` in [0, 1] with `linear_to_srgb(l) >= c` (c >= 1);
+    /// `threshold[256]` is infinite.
+    threshold: [f32; 257],
+    /// `coarse[i] = linear_to_srgb(i / BINS)`, the code of any `l` in bin `i` or one less.
+    coarse: [u8; BINS + 1],
 }
 
 const BINS: usize = 4096;
@@ -94,6 +97,9 @@ impl Tables {
         let to_linear = std::array::from_fn(|i| srgb_to_linear(i as u8));
         // Bisection over the bit patterns of non-negative floats, which are ordered like the floats.
         let threshold = std::array::from_fn(|c| {
+            if c > 255 {
+                return f32::INFINITY;
+            }
             let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
             while lo < hi {
                 let mid = lo + (hi - lo) / 2;
@@ -101,22 +107,21 @@ impl Tables {
             }
             f32::from_bits(lo)
         });
-        let coarse = (0..=BINS).map(|i| linear_to_srgb(i as f32 / BINS as f32)).collect();
+        let coarse: [u8; BINS + 1] = std::array::from_fn(|i| linear_to_srgb(i as f32 / BINS as f32));
+        // The single comparison in `encode` needs every bin to cross at most one code boundary.
+        assert!(coarse.windows(2).all(|w| w[1] - w[0] <= 1), "sRGB bins too coarse");
         Tables { to_linear, threshold, coarse }
     }
 
-    fn lin(&self, p: &[u8]) -> [f32; 3] {
+    fn lin(&self, p: &[u8; 4]) -> [f32; 3] {
         [self.to_linear[usize::from(p[0])], self.to_linear[usize::from(p[1])], self.to_linear[usize::from(p[2])]]
     }
 
     /// [`linear_to_srgb`] by table.
     fn encode(&self, l: f32) -> u8 {
         let l = if l.is_finite() { l.clamp(0.0, 1.0) } else { 0.0 };
-        let mut c = self.coarse[(l * BINS as f32) as usize];
-        while c < 255 && l >= self.threshold[usize::from(c) + 1] {
-            c += 1;
-        }
-        c
+        let c = self.coarse[(l * BINS as f32) as usize];
+        c + u8::from(l >= self.threshold[usize::from(c) + 1])
     }
 }
 
@@ -125,7 +130,12 @@ pub fn linear_to_srgb_fast(l: f32) -> u8 {
     TABLES.encode(l)
 }
 
-fn average(t: &Tables, a: &[u8], b: &[u8], out: &mut [u8]) {
+/// The pixels of a row as 4-byte arrays.
+fn px(row: &[u8]) -> &[[u8; 4]] {
+    row.as_chunks::<4>().0
+}
+
+fn average(t: &Tables, a: &[u8; 4], b: &[u8; 4], out: &mut [u8; 4]) {
     let (la, lb) = (t.lin(a), t.lin(b));
     out[0] = t.encode((la[0] + lb[0]) * 0.5);
     out[1] = t.encode((la[1] + lb[1]) * 0.5);
@@ -140,7 +150,7 @@ pub fn anaglyph_pixel(left: [u8; 4], right: [u8; 4]) -> [u8; 4] {
     out
 }
 
-fn anaglyph_with(t: &Tables, left: &[u8], right: &[u8], out: &mut [u8]) {
+fn anaglyph_with(t: &Tables, left: &[u8; 4], right: &[u8; 4], out: &mut [u8; 4]) {
     let (l, r) = (t.lin(left), t.lin(right));
     let (a, b) = (&DUBOIS_LEFT, &DUBOIS_RIGHT);
     for c in 0..3 {
@@ -195,7 +205,9 @@ pub fn transform(mode: DisplayMode, view: View, frame: Rgba8) -> Rgba8 {
         DisplayMode::Anaglyph => {
             for (y, o) in out.pixels.chunks_exact_mut(eye_bytes).enumerate() {
                 let (l, r) = eyes(y);
-                for ((o, l), r) in o.chunks_exact_mut(4).zip(l.chunks_exact(4)).zip(r.chunks_exact(4)) {
+                for ((o, l), r) in
+                    o.as_chunks_mut::<4>().0.iter_mut().zip(l.as_chunks::<4>().0).zip(r.as_chunks::<4>().0)
+                {
                     anaglyph_with(t, l, r, o);
                 }
             }
@@ -207,8 +219,9 @@ pub fn transform(mode: DisplayMode, view: View, frame: Rgba8) -> Rgba8 {
                 let (l, r) = eyes(y);
                 let (ol, or) = o.split_at_mut(half * 4);
                 for (src, dst) in [(l, ol), (r, or)] {
-                    for (pair, d) in src.chunks_exact(8).zip(dst.chunks_exact_mut(4)) {
-                        average(t, &pair[..4], &pair[4..], d);
+                    for (pair, d) in src.as_chunks::<8>().0.iter().zip(dst.as_chunks_mut::<4>().0) {
+                        let (a, b) = pair.split_at(4);
+                        average(t, a.try_into().expect("4 bytes"), b.try_into().expect("4 bytes"), d);
                     }
                 }
             }
@@ -218,10 +231,11 @@ pub fn transform(mode: DisplayMode, view: View, frame: Rgba8) -> Rgba8 {
             let (top, bottom) = out.pixels.split_at_mut(half * eye_bytes);
             for (y, (ot, ob)) in top.chunks_exact_mut(eye_bytes).zip(bottom.chunks_exact_mut(eye_bytes)).enumerate() {
                 let ((l0, r0), (l1, r1)) = (eyes(2 * y), eyes(2 * y + 1));
-                for x in (0..eye_bytes).step_by(4) {
-                    let p = x..x + 4;
-                    average(t, &l0[p.clone()], &l1[p.clone()], &mut ot[p.clone()]);
-                    average(t, &r0[p.clone()], &r1[p.clone()], &mut ob[p]);
+                for ((o, a), b) in ot.as_chunks_mut::<4>().0.iter_mut().zip(px(l0)).zip(px(l1)) {
+                    average(t, a, b, o);
+                }
+                for ((o, a), b) in ob.as_chunks_mut::<4>().0.iter_mut().zip(px(r0)).zip(px(r1)) {
+                    average(t, a, b, o);
                 }
             }
         }

@@ -130,10 +130,9 @@ pub fn to_color_image(frame: &Rgba8) -> egui::ColorImage {
     }
 }
 
-/// Decodes one PNG frame to RGBA8, checking its size against the manifest. The file is read
-/// whole and decoded straight into one buffer (8-bit grey, grey-alpha, RGB or RGBA; RGB, the
-/// format of rendered frames, is widened to RGBA in place without a second image).
-pub fn decode_frame(path: &Path, width: u32, height: u32) -> Result<Rgba8, RunnerError> {
+/// Reads a PNG frame, checking its size: the samples as stored (8-bit grey, grey-alpha, RGB
+/// or RGBA) at the front of a buffer with room for RGBA, and the number of channels.
+fn read_png(path: &Path, width: u32, height: u32) -> Result<(Vec<u8>, usize), RunnerError> {
     use image::ImageDecoder;
     let bad = |message: String| RunnerError::Sequence { path: path.to_owned(), message };
     let bytes = std::fs::read(path).map_err(|source| RunnerError::Io { path: path.to_owned(), source })?;
@@ -143,8 +142,7 @@ pub fn decode_frame(path: &Path, width: u32, height: u32) -> Result<Rgba8, Runne
     if (w, h) != (width, height) {
         return Err(bad(format!("frame is {w}x{h}, the manifest says {width}x{height}")));
     }
-    let color = decoder.color_type();
-    let channels = match color {
+    let channels = match decoder.color_type() {
         image::ColorType::L8 => 1,
         image::ColorType::La8 => 2,
         image::ColorType::Rgb8 => 3,
@@ -154,18 +152,61 @@ pub fn decode_frame(path: &Path, width: u32, height: u32) -> Result<Rgba8, Runne
     let n = width as usize * height as usize;
     let mut pixels = vec![0u8; n * 4];
     decoder.read_image(&mut pixels[..n * channels]).map_err(|e| bad(format!("cannot decode PNG: {e}")))?;
-    // Widen in place from the back, so no source pixel is overwritten before it is read.
-    for i in (0..n).rev() {
-        let s = i * channels;
-        let p = match channels {
-            1 => [pixels[s], pixels[s], pixels[s], 255],
-            2 => [pixels[s], pixels[s], pixels[s], pixels[s + 1]],
-            3 => [pixels[s], pixels[s + 1], pixels[s + 2], 255],
-            _ => break,
-        };
-        pixels[i * 4..i * 4 + 4].copy_from_slice(&p);
+    Ok((pixels, channels))
+}
+
+/// Widens `n` pixels of `channels` samples at the front of `pixels` to RGBA in place, from
+/// the back, so no source pixel is overwritten before it is read.
+fn widen(pixels: &mut [u8], n: usize, channels: usize) {
+    match channels {
+        1 => {
+            for i in (0..n).rev() {
+                let v = pixels[i];
+                pixels[4 * i..4 * i + 4].copy_from_slice(&[v, v, v, 255]);
+            }
+        }
+        2 => {
+            for i in (0..n).rev() {
+                let (v, a) = (pixels[2 * i], pixels[2 * i + 1]);
+                pixels[4 * i..4 * i + 4].copy_from_slice(&[v, v, v, a]);
+            }
+        }
+        3 => {
+            for i in (0..n).rev() {
+                let (r, g, b) = (pixels[3 * i], pixels[3 * i + 1], pixels[3 * i + 2]);
+                pixels[4 * i..4 * i + 4].copy_from_slice(&[r, g, b, 255]);
+            }
+        }
+        _ => {}
     }
+}
+
+/// Decodes one PNG frame to RGBA8, checking its size against the manifest. The file is read
+/// whole and decoded straight into one buffer (8-bit grey, grey-alpha, RGB or RGBA; RGB, the
+/// format of rendered frames, is widened to RGBA in place without a second image).
+pub fn decode_frame(path: &Path, width: u32, height: u32) -> Result<Rgba8, RunnerError> {
+    let (mut pixels, channels) = read_png(path, width, height)?;
+    widen(&mut pixels, width as usize * height as usize, channels);
     Ok(Rgba8 { width, height, pixels })
+}
+
+/// Decodes one frame of a sequence to the image shown in `mode`. An RGB frame shown as it is
+/// (mono, or stereo side by side at full width) goes straight from the PNG samples to egui's
+/// pixels; the other modes transform the RGBA frame first.
+pub fn decode_display_frame(
+    path: &Path,
+    m: &SequenceManifest,
+    mode: DisplayMode,
+) -> Result<egui::ColorImage, RunnerError> {
+    let (mut pixels, channels) = read_png(path, m.width, m.height)?;
+    let n = m.width as usize * m.height as usize;
+    let unchanged = m.view == View::Mono || mode == DisplayMode::SbsFull;
+    if unchanged && channels == 3 {
+        return Ok(egui::ColorImage::from_rgb([m.width as usize, m.height as usize], &pixels[..3 * n]));
+    }
+    widen(&mut pixels, n, channels);
+    let frame = Rgba8 { width: m.width, height: m.height, pixels };
+    Ok(to_color_image(&transform(mode, m.view, frame)))
 }
 
 /// Decodes every frame of `sequence` and applies the display mode, counting decoded frames
@@ -190,8 +231,7 @@ pub fn decode_sequence(
                     while !failed.load(Ordering::Relaxed) {
                         let i = next.fetch_add(1, Ordering::Relaxed);
                         let Some(p) = paths.get(i) else { break };
-                        let frame =
-                            decode_frame(p, m.width, m.height).map(|f| to_color_image(&transform(mode, m.view, f)));
+                        let frame = decode_display_frame(p, m, mode);
                         failed.fetch_or(frame.is_err(), Ordering::Relaxed);
                         progress.fetch_add(usize::from(frame.is_ok()), Ordering::Relaxed);
                         done.push((i, frame));
@@ -357,6 +397,22 @@ mod tests {
         let bar = frame.get(0, 1);
         assert_eq!((bar[2], bar[3]), (200, 255));
         assert_eq!(decoded.frames[0].as_raw(), &frame.pixels[..]);
+        // Every display mode of a stereo frame equals the transform of its RGBA decode.
+        let id: StimulusId = "M2-S2-T3-A5-stereo".parse().unwrap();
+        write_synthetic_set(&dir.path().join("stereo"), &[id], 8, 4, 1, 30.0).unwrap();
+        let folder = dir.path().join("stereo").join(id.to_string());
+        let manifest = SequenceManifest::read(&folder.join("manifest.json")).unwrap();
+        let png = folder.join(&manifest.frames[0].png);
+        for mode in DisplayMode::ALL {
+            let rgba = decode_frame(&png, 16, 4).unwrap();
+            let want = transform(mode, View::Stereo, rgba);
+            let got = decode_display_frame(&png, &manifest, mode).unwrap();
+            assert_eq!(
+                (got.size, got.as_raw()),
+                ([want.width as usize, want.height as usize], &want.pixels[..]),
+                "{mode}"
+            );
+        }
 
         std::fs::remove_file(dir.path().join("M2-S2-T4-A5/frame-0002.png")).unwrap();
         let e = StimulusSet::open_for(dir.path(), &d).unwrap_err().to_string();
