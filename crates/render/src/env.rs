@@ -10,9 +10,16 @@
 //! proportional to what it samples.
 //!
 //! Sampling follows the usual two-level construction: a marginal distribution over rows
-//! and a conditional one over the pixels of each row, both proportional to
-//! `luminance x sin(theta)` of the row centre. Every map, including the built-in default
-//! and the uniform one of the furnace tests, goes through this same construction.
+//! and a conditional one over the cells of each row, both proportional to
+//! `luminance x sin(theta)` summed over the cell's pixels. A cell is one pixel of maps up
+//! to [`MAX_DISTRIBUTION_ROWS`] rows high and a square of `f x f` pixels (`f` a power of
+//! two) of larger ones: the distribution then stays small enough to live in the caches
+//! (a full-resolution one of a 1024 x 512 map is 14 MB and every light sample missed the
+//! cache), while radiance is still looked up at full resolution. The density a sample is
+//! given is the one it was drawn with, computed from the stored cumulative tables
+//! themselves, so the estimator stays unbiased whatever the cell size and rounding. Every
+//! map, including the built-in default and the uniform one of the furnace tests, goes
+//! through this same construction.
 
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -21,6 +28,7 @@ use glam::DVec3;
 use study::scene::{Environment, Lighting};
 
 use crate::io::{LinearImage, decode_exr, decode_hdr};
+use crate::math::{acos_approx, atan2_approx, sin_cos_turns};
 
 /// Errors of building an environment map; each names the file (when there is one) and
 /// what is wrong with it.
@@ -83,15 +91,16 @@ pub enum EnvError {
     Parameter(String),
 }
 
-/// A direction sampled from the map.
+/// A direction sampled from the map. Its radiance is fetched separately
+/// ([`EnvironmentMap::sample_radiance`]), only when the sample turns out to be unoccluded.
 #[derive(Clone, Copy, Debug)]
 pub struct EnvSample {
     /// Unit world direction towards the environment.
     pub direction: DVec3,
-    /// Radiance arriving from that direction.
-    pub radiance: DVec3,
     /// Probability density per unit solid angle.
     pub pdf: f64,
+    /// The map pixel the direction falls in.
+    texel: usize,
 }
 
 /// A latitude-longitude radiance map placed in the world, ready for look-ups and
@@ -100,30 +109,46 @@ pub struct EnvSample {
 pub struct EnvironmentMap {
     width: u32,
     height: u32,
-    /// Per pixel: radiance (already scaled by the lighting's intensity) and sampling
-    /// density over the unit square (weight / mean weight), together so one look-up
-    /// touches one cache line.
-    texels: Vec<Texel>,
+    /// Per pixel: radiance, already scaled by the lighting's intensity.
+    texels: Vec<[f32; 3]>,
+    /// Pixels per side of a distribution cell (a power of two).
+    cell: u32,
+    /// Distribution size in cells.
+    dist_width: u32,
+    dist_height: u32,
+    /// Per cell: sampling density over the unit square of map coordinates.
+    cell_density: Vec<f32>,
     /// World-from-map rotation about +y: cosine and sine.
     rot_cos: f64,
     rot_sin: f64,
-    /// Cumulative row weights, `height + 1` entries from 0 to 1.
+    /// Cumulative weights of the distribution's rows, `dist_height + 1` entries from 0
+    /// to 1.
     marginal_cdf: Vec<f64>,
     /// Guide table of the marginal (see [`guide_table`]).
     marginal_guide: Vec<u32>,
-    /// Per row, cumulative pixel weights, `width + 1` entries from 0 to 1 (a uniform row
-    /// where the row has no weight).
-    conditional_cdf: Vec<f64>,
-    /// Per row, the guide table of its conditional, `width` entries.
+    /// Per distribution row, cumulative cell weights, `dist_width + 1` entries from 0 to 1
+    /// (a uniform row where the row has no weight).
+    conditional_cdf: Vec<f32>,
+    /// Per distribution row, the guide table of its conditional, `dist_width` entries.
     conditional_guide: Vec<u32>,
     /// Whether any pixel has weight (a black map cannot be sampled).
     samplable: bool,
+    /// `cos theta` of the row edges, `height + 1` entries from 1 down to -1.
+    row_edge_cos: Vec<f64>,
+    /// `(sin phi, cos phi)` of the column edges, `width + 1` entries.
+    col_edge: Vec<(f64, f64)>,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Texel {
-    radiance: [f32; 3],
-    density: f32,
+/// Rows of the sampling distribution at most (see the module documentation).
+pub const MAX_DISTRIBUTION_ROWS: u32 = 256;
+
+/// Pixels per side of a distribution cell of a map `height` pixels high.
+fn cell_factor(height: u32) -> u32 {
+    let mut f = 1;
+    while height / f > MAX_DISTRIBUTION_ROWS && (height / f).is_multiple_of(2) {
+        f *= 2;
+    }
+    f
 }
 
 fn luminance(c: DVec3) -> f64 {
@@ -200,52 +225,61 @@ impl EnvironmentMap {
         }
         let max_lum = radiance.iter().map(|c| luminance(*c)).fold(0.0, f64::max);
         let scale = if max_lum > 0.0 { 1.0 / max_lum } else { 0.0 };
-        let mut weights = vec![0.0; wu * hu];
-        let mut row_sums = vec![0.0; hu];
+        let f = cell_factor(h);
+        let (wd, hd) = ((w / f) as usize, (h / f) as usize);
+        let fu = f as usize;
+        let mut weights = vec![0.0; wd * hd];
         for y in 0..hu {
             let sin_theta = (PI * (y as f64 + 0.5) / h as f64).sin();
             for x in 0..wu {
-                let wgt = luminance(radiance[y * wu + x]) * scale * sin_theta;
-                weights[y * wu + x] = wgt;
-                row_sums[y] += wgt;
+                weights[(y / fu) * wd + x / fu] += luminance(radiance[y * wu + x]) * scale * sin_theta;
             }
         }
+        let row_sums: Vec<f64> = weights.chunks_exact(wd).map(|r| r.iter().sum()).collect();
         let total: f64 = row_sums.iter().sum();
         let samplable = total > 0.0 && total.is_finite();
-        let mut marginal_cdf = vec![0.0; hu + 1];
-        let mut conditional_cdf = vec![0.0; hu * (wu + 1)];
-        let mut pixel_density = vec![0.0f64; wu * hu];
-        for y in 0..hu {
+        let mut marginal_cdf = vec![0.0; hd + 1];
+        let mut conditional_cdf = vec![0.0f32; hd * (wd + 1)];
+        for y in 0..hd {
             marginal_cdf[y + 1] =
-                if samplable { marginal_cdf[y] + row_sums[y] / total } else { (y + 1) as f64 / h as f64 };
-            let row = &mut conditional_cdf[y * (wu + 1)..(y + 1) * (wu + 1)];
-            for x in 0..wu {
-                row[x + 1] = if row_sums[y] > 0.0 {
-                    row[x] + weights[y * wu + x] / row_sums[y]
-                } else {
-                    (x + 1) as f64 / w as f64
-                };
+                if samplable { marginal_cdf[y] + row_sums[y] / total } else { (y + 1) as f64 / hd as f64 };
+            let row = &mut conditional_cdf[y * (wd + 1)..(y + 1) * (wd + 1)];
+            let mut running = 0.0;
+            for x in 0..wd {
+                running += weights[y * wd + x];
+                row[x + 1] =
+                    if row_sums[y] > 0.0 { (running / row_sums[y]) as f32 } else { (x + 1) as f32 / wd as f32 };
             }
-            row[wu] = 1.0;
-            if samplable {
-                let mean = total / (wu * hu) as f64;
-                for x in 0..wu {
-                    pixel_density[y * wu + x] = weights[y * wu + x] / mean;
+            row[wd] = 1.0;
+        }
+        marginal_cdf[hd] = 1.0;
+        // The density each cell is actually drawn with, from the tables as stored.
+        let mut cell_density = vec![0.0f32; wd * hd];
+        if samplable {
+            for y in 0..hd {
+                let row = &conditional_cdf[y * (wd + 1)..(y + 1) * (wd + 1)];
+                let p_row = marginal_cdf[y + 1] - marginal_cdf[y];
+                for x in 0..wd {
+                    let p = p_row * (f64::from(row[x + 1]) - f64::from(row[x]));
+                    cell_density[y * wd + x] = (p * (wd * hd) as f64) as f32;
                 }
             }
         }
-        marginal_cdf[hu] = 1.0;
         let marginal_guide = guide_table(&marginal_cdf);
-        let conditional_guide = conditional_cdf.chunks_exact(wu + 1).flat_map(guide_table).collect();
-        let texels = radiance
-            .iter()
-            .zip(&pixel_density)
-            .map(|(r, d)| Texel { radiance: [r.x as f32, r.y as f32, r.z as f32], density: *d as f32 })
-            .collect();
+        let conditional_guide = conditional_cdf.chunks_exact(wd + 1).flat_map(guide_table).collect();
+        let texels = radiance.iter().map(|r| [r.x as f32, r.y as f32, r.z as f32]).collect();
+        let row_edge_cos = (0..=h).map(|j| sin_cos_turns(0.5 * f64::from(j) / f64::from(h)).1).collect();
+        let col_edge = (0..=w).map(|j| sin_cos_turns(f64::from(j) / f64::from(w))).collect();
         Ok(EnvironmentMap {
+            row_edge_cos,
+            col_edge,
             width: w,
             height: h,
             texels,
+            cell: f,
+            dist_width: wd as u32,
+            dist_height: hd as u32,
+            cell_density,
             rot_cos: rotation_y.cos(),
             rot_sin: rotation_y.sin(),
             marginal_cdf,
@@ -280,7 +314,9 @@ impl EnvironmentMap {
         DVec3::new(self.rot_cos * d.x + self.rot_sin * d.z, d.y, -self.rot_sin * d.x + self.rot_cos * d.z)
     }
 
-    /// Map coordinates (u, v) in [0, 1) of a world direction (need not be normalised).
+    /// Map coordinates (u, v) in [0, 1) of a world direction (need not be normalised), by
+    /// the exact inverse trigonometric functions (the reference of [`Self::texel_of`]).
+    #[cfg(test)]
     fn uv(&self, d: DVec3) -> (f64, f64) {
         let m = self.to_map(d);
         let len = m.length();
@@ -293,10 +329,52 @@ impl EnvironmentMap {
         (phi / (2.0 * PI), theta / PI)
     }
 
+    #[cfg(test)]
     fn pixel_of(&self, u: f64, v: f64) -> usize {
         let x = ((u * self.width as f64) as usize).min(self.width as usize - 1);
         let y = ((v * self.height as f64) as usize).min(self.height as usize - 1);
         y * self.width as usize + x
+    }
+
+    /// The texel a finite, non-zero world direction falls in, and the direction's
+    /// `sin theta`. Fast approximate inverse trigonometry finds the row and column to
+    /// within a fraction of a texel; comparisons with the texel edges then settle the
+    /// exact one, so the result equals the exact look-up except on the edges themselves.
+    #[inline]
+    fn texel_of(&self, d: DVec3) -> (usize, f64) {
+        let m = self.to_map(d);
+        let inv_len = 1.0 / m.length();
+        let cos_theta = (m.y * inv_len).clamp(-1.0, 1.0);
+        let sin_theta = (m.x * m.x + m.z * m.z).sqrt() * inv_len;
+        let (w, h) = (self.width as usize, self.height as usize);
+        let edges = &self.row_edge_cos;
+        let mut y = ((acos_approx(cos_theta) * (h as f64 / PI)) as usize).min(h - 1);
+        for _ in 0..2 {
+            if y > 0 && cos_theta > edges[y] {
+                y -= 1;
+            } else if y + 1 < h && cos_theta <= edges[y + 1] {
+                y += 1;
+            }
+        }
+        // phi = atan2(m.x, -m.z); the point lies after column edge j when
+        // sin(phi - phi_j) = m.x cos phi_j + m.z sin phi_j >= 0.
+        let mut phi = atan2_approx(m.x, -m.z);
+        if phi < 0.0 {
+            phi += 2.0 * PI;
+        }
+        let mut x = ((phi * (w as f64 / (2.0 * PI))) as usize).min(w - 1);
+        let after = |j: usize| {
+            let (s, c) = self.col_edge[j];
+            m.x * c + m.z * s >= 0.0
+        };
+        for _ in 0..2 {
+            if !after(x) {
+                x = (x + w - 1) % w;
+            } else if after(x + 1) {
+                x = (x + 1) % w;
+            }
+        }
+        (y * w + x, sin_theta)
     }
 
     /// Radiance arriving from world direction `d` (need not be normalised; a zero or
@@ -305,38 +383,41 @@ impl EnvironmentMap {
         if !d.is_finite() || d == DVec3::ZERO {
             return DVec3::ZERO;
         }
-        let (u, v) = self.uv(d);
-        texel_radiance(&self.texels[self.pixel_of(u, v)])
+        texel_radiance(&self.texels[self.texel_of(d).0])
+    }
+
+    /// Radiance arriving from the direction of a sample drawn from this map.
+    #[inline]
+    pub fn sample_radiance(&self, sample: &EnvSample) -> DVec3 {
+        texel_radiance(&self.texels[sample.texel])
     }
 
     /// Density per unit solid angle with which [`EnvironmentMap::sample`] picks world
     /// direction `d`.
     pub fn pdf(&self, d: DVec3) -> f64 {
-        if !self.samplable || !d.is_finite() || d == DVec3::ZERO {
-            return 0.0;
-        }
-        let (u, v) = self.uv(d);
-        let sin_theta = (PI * v).sin();
-        if sin_theta <= 0.0 {
-            return 0.0;
-        }
-        f64::from(self.texels[self.pixel_of(u, v)].density) / (2.0 * PI * PI * sin_theta)
+        self.radiance_and_pdf(d).1
     }
 
     /// Radiance and sampling density of a direction in one look-up.
+    #[inline]
     pub fn radiance_and_pdf(&self, d: DVec3) -> (DVec3, f64) {
         if !d.is_finite() || d == DVec3::ZERO {
             return (DVec3::ZERO, 0.0);
         }
-        let (u, v) = self.uv(d);
-        let texel = &self.texels[self.pixel_of(u, v)];
-        let sin_theta = (PI * v).sin();
+        let (index, sin_theta) = self.texel_of(d);
         let pdf = if self.samplable && sin_theta > 0.0 {
-            f64::from(texel.density) / (2.0 * PI * PI * sin_theta)
+            f64::from(self.cell_density[self.cell_of(index)]) / (2.0 * PI * PI * sin_theta)
         } else {
             0.0
         };
-        (texel_radiance(texel), pdf)
+        (texel_radiance(&self.texels[index]), pdf)
+    }
+
+    /// The distribution cell holding pixel `index`.
+    #[inline]
+    fn cell_of(&self, index: usize) -> usize {
+        let (w, f) = (self.width as usize, self.cell as usize);
+        (index / w / f) * self.dist_width as usize + (index % w) / f
     }
 
     /// Picks a direction with density proportional to luminance x sin(theta) per pixel,
@@ -346,46 +427,67 @@ impl EnvironmentMap {
         if !self.samplable {
             return None;
         }
-        let (w, h) = (self.width as usize, self.height as usize);
+        let (wd, hd) = (self.dist_width as usize, self.dist_height as usize);
         let (y, fy) = sample_cdf(&self.marginal_cdf, &self.marginal_guide, u[0]);
-        let row = &self.conditional_cdf[y * (w + 1)..(y + 1) * (w + 1)];
-        let (x, fx) = sample_cdf(row, &self.conditional_guide[y * w..(y + 1) * w], u[1]);
-        let uu = (x as f64 + fx) / w as f64;
-        let vv = (y as f64 + fy) / h as f64;
-        let theta = PI * vv;
-        let phi = 2.0 * PI * uu;
-        let sin_theta = theta.sin();
-        if sin_theta <= 0.0 {
-            return None;
-        }
-        let texel = &self.texels[y * w + x];
-        let density = f64::from(texel.density);
+        let row = &self.conditional_cdf[y * (wd + 1)..(y + 1) * (wd + 1)];
+        let (x, fx) = sample_cdf(row, &self.conditional_guide[y * wd..(y + 1) * wd], u[1]);
+        let density = f64::from(self.cell_density[y * wd + x]);
         if density <= 0.0 {
             return None;
         }
-        let m = DVec3::new(phi.sin() * sin_theta, theta.cos(), -phi.cos() * sin_theta);
+        let uu = (x as f64 + fx) / wd as f64;
+        let vv = (y as f64 + fy) / hd as f64;
+        let (sin_theta, cos_theta) = sin_cos_turns(0.5 * vv);
+        let (sin_phi, cos_phi) = sin_cos_turns(uu);
+        if sin_theta <= 0.0 {
+            return None;
+        }
+        // The pixel inside the cell.
+        let f = self.cell as usize;
+        let px = (((x as f64 + fx) * f as f64) as usize).clamp(x * f, x * f + f - 1);
+        let py = (((y as f64 + fy) * f as f64) as usize).clamp(y * f, y * f + f - 1);
+        let m = DVec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta);
         Some(EnvSample {
             direction: self.to_world(m),
-            radiance: texel_radiance(texel),
             pdf: density / (2.0 * PI * PI * sin_theta),
+            texel: py * self.width as usize + px,
         })
     }
 }
 
-fn texel_radiance(t: &Texel) -> DVec3 {
-    DVec3::new(f64::from(t.radiance[0]), f64::from(t.radiance[1]), f64::from(t.radiance[2]))
+fn texel_radiance(t: &[f32; 3]) -> DVec3 {
+    DVec3::new(f64::from(t[0]), f64::from(t[1]), f64::from(t[2]))
+}
+
+/// An entry of a cumulative distribution table.
+trait CdfValue: Copy {
+    fn value(self) -> f64;
+}
+
+impl CdfValue for f64 {
+    #[inline]
+    fn value(self) -> f64 {
+        self
+    }
+}
+
+impl CdfValue for f32 {
+    #[inline]
+    fn value(self) -> f64 {
+        f64::from(self)
+    }
 }
 
 /// A guide table for inverting a cumulative distribution of `n + 1` entries: entry `k` is
 /// the interval holding `u = k / n`, so a search for `u` starts at most a few intervals
 /// before its answer (a binary search over a large map misses the cache at every step).
-fn guide_table(cdf: &[f64]) -> Vec<u32> {
+fn guide_table<T: CdfValue>(cdf: &[T]) -> Vec<u32> {
     let n = cdf.len() - 1;
     let mut guide = Vec::with_capacity(n);
     let mut i = 0;
     for k in 0..n {
         let u = k as f64 / n as f64;
-        while i + 1 < n && cdf[i + 1] <= u {
+        while i + 1 < n && cdf[i + 1].value() <= u {
             i += 1;
         }
         guide.push(i as u32);
@@ -395,15 +497,24 @@ fn guide_table(cdf: &[f64]) -> Vec<u32> {
 
 /// Inverts a cumulative distribution of `n + 1` entries: the chosen interval and the
 /// fractional position inside it. Intervals of zero width are never chosen.
-fn sample_cdf(cdf: &[f64], guide: &[u32], u: f64) -> (usize, f64) {
+fn sample_cdf<T: CdfValue>(cdf: &[T], guide: &[u32], u: f64) -> (usize, f64) {
     let n = cdf.len() - 1;
-    // First index i with cdf[i + 1] > u, scanning forward from the guide.
-    let mut i = guide[((u * n as f64) as usize).min(n - 1)] as usize;
-    while i + 1 < n && cdf[i + 1] <= u {
+    // The answer, the first index i with cdf[i + 1] > u, lies between the guide entries
+    // of u's cell and of the next cell: a binary search between them costs a few steps
+    // even where one cell spans many intervals of a peaked map.
+    let k = ((u * n as f64) as usize).min(n - 1);
+    let lo = guide[k] as usize;
+    let hi = if k + 1 < n { (guide[k + 1] as usize).max(lo) } else { n - 1 };
+    let mut i = lo + cdf[lo + 1..=hi].partition_point(|&c| c.value() <= u);
+    // Rounding of u * n can put u a hair outside its cell: finish by scanning.
+    while i + 1 < n && cdf[i + 1].value() <= u {
         i += 1;
     }
-    let width = cdf[i + 1] - cdf[i];
-    let f = if width > 0.0 { ((u - cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.5 };
+    while i > 0 && cdf[i].value() > u {
+        i -= 1;
+    }
+    let width = cdf[i + 1].value() - cdf[i].value();
+    let f = if width > 0.0 { ((u - cdf[i].value()) / width).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.5 };
     (i, f)
 }
 
@@ -484,6 +595,15 @@ mod tests {
         Lighting { environment, intensity: 1.0, rotation_y: 0.0 }
     }
 
+    /// A seeded stream of uniform numbers in [0, 1).
+    fn uniforms(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state = study::seed::splitmix64(state);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// Integrates `f` over the sphere with a fine midpoint rule in (theta, phi).
     fn integrate_sphere(f: impl Fn(DVec3) -> f64, n: usize) -> f64 {
         let mut sum = 0.0;
@@ -524,11 +644,7 @@ mod tests {
         let (w, h) = (16usize, 8usize);
         let n = 200_000;
         let mut counts = vec![0.0; w * h];
-        let mut rng = 0x1234_5678_u64;
-        let mut next = || {
-            rng = study::seed::splitmix64(rng);
-            (rng >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = uniforms(0x1234_5678_u64);
         for _ in 0..n {
             let s = map.sample([next(), next()]).unwrap();
             assert!(s.pdf.is_finite() && s.pdf > 0.0 && s.direction.is_finite());
@@ -539,7 +655,7 @@ mod tests {
         let mut chi2 = 0.0;
         let mut dof = 0;
         for (i, &c) in counts.iter().enumerate() {
-            let expected = f64::from(map.texels[i].density) / (w * h) as f64 * n as f64;
+            let expected = f64::from(map.cell_density[i]) / (w * h) as f64 * n as f64;
             if expected > 5.0 {
                 chi2 += (c - expected) * (c - expected) / expected;
                 dof += 1;
@@ -561,7 +677,7 @@ mod tests {
             if let Some(s) = map.sample([u0, u1]) {
                 let (_, v) = map.uv(s.direction);
                 assert_ne!((v * 32.0) as usize, 5, "sampled a black row");
-                assert!(s.pdf.is_finite() && s.radiance.is_finite());
+                assert!(s.pdf.is_finite() && map.sample_radiance(&s).is_finite());
             }
         }
         for u in [0.0, 1.0 - f64::EPSILON, 0.5] {
@@ -573,6 +689,89 @@ mod tests {
         }
         assert_eq!(map.pdf(DVec3::Y), 0.0);
         assert!(map.radiance(DVec3::ZERO) == DVec3::ZERO);
+    }
+
+    #[test]
+    fn large_maps_are_sampled_through_cells_with_the_density_they_report() {
+        let mut img = default_map(1024);
+        img.set(700, 300, [5.0e4, 5.0e4, 5.0e4]);
+        let map = EnvironmentMap::from_image(&img, 1.0, 0.4, "big").unwrap();
+        assert_eq!((map.cell, map.dist_width, map.dist_height), (2, 512, 256));
+        let total = integrate_sphere(|d| map.pdf(d), 1024);
+        assert!((total - 1.0).abs() < 2e-3, "integral {total}");
+        let (wd, hd) = (512usize, 256usize);
+        let n = 2_000_000;
+        let mut counts = vec![0.0; wd * hd];
+        let mut next = uniforms(0xfeed_u64);
+        let mut radiance_mismatches = 0;
+        for _ in 0..n {
+            let s = map.sample([next(), next()]).unwrap();
+            assert!((s.pdf - map.pdf(s.direction)).abs() <= 1e-6 * s.pdf);
+            if map.sample_radiance(&s) != map.radiance(s.direction) {
+                radiance_mismatches += 1;
+            }
+            counts[map.cell_of(map.texel_of(s.direction).0)] += 1.0;
+        }
+        // Only directions on a pixel's edge may round to the neighbour.
+        assert!(radiance_mismatches < n / 10_000, "{radiance_mismatches} mismatches");
+        let (mut chi2, mut dof) = (0.0, 0);
+        for (i, &c) in counts.iter().enumerate() {
+            let expected = f64::from(map.cell_density[i]) / (wd * hd) as f64 * n as f64;
+            if expected > 20.0 {
+                chi2 += (c - expected) * (c - expected) / expected;
+                dof += 1;
+            }
+        }
+        assert!(dof > 1000 && chi2 < dof as f64 + 5.0 * (2.0 * dof as f64).sqrt(), "chi2 {chi2} dof {dof}");
+    }
+
+    #[test]
+    fn fast_texel_lookup_equals_the_exact_one() {
+        for (w, rot) in [(1024u32, 0.0), (64, 0.7), (8, -2.0)] {
+            let map = EnvironmentMap::from_image(&default_map(w), 1.0, rot, "t").unwrap();
+            let mut uniform = uniforms(7_u64);
+            let mut next = || uniform() * 2.0 - 1.0;
+            for i in 0..100_000 {
+                // Random directions, and some near the poles and the phi = 0 seam.
+                let mut d = DVec3::new(next(), next(), next());
+                if i % 10 == 0 {
+                    d.x *= 1e-6;
+                    d.z *= 1e-6;
+                } else if i % 10 == 1 {
+                    d.x *= 1e-7;
+                    d.z = -d.z.abs();
+                }
+                if d == DVec3::ZERO {
+                    continue;
+                }
+                let (u, v) = map.uv(d);
+                assert_eq!(map.texel_of(d).0, map.pixel_of(u, v), "map {w}: direction {d}");
+            }
+        }
+    }
+
+    #[test]
+    fn guided_cdf_inversion_finds_the_first_interval_past_u() {
+        // A peaked distribution (one cell holds most of the mass) with zero-width
+        // intervals, inverted at many u against a linear search.
+        let mut weights: Vec<f64> = (0..300).map(|i| if i % 7 == 0 { 0.0 } else { 1.0 + (i % 5) as f64 }).collect();
+        weights[150] = 1.0e5;
+        let total: f64 = weights.iter().sum();
+        let mut cdf = vec![0.0];
+        for w in &weights {
+            cdf.push(cdf.last().unwrap() + w / total);
+        }
+        *cdf.last_mut().unwrap() = 1.0;
+        let guide = guide_table(&cdf);
+        let mut rng = 3_u64;
+        for k in 0..200_000 {
+            rng = study::seed::splitmix64(rng);
+            let u = if k < 1000 { cdf[k % 300] } else { (rng >> 11) as f64 / (1u64 << 53) as f64 };
+            let (i, f) = sample_cdf(&cdf, &guide, u);
+            let expected = (0..300).find(|&i| cdf[i + 1] > u).unwrap_or(299);
+            assert_eq!(i, expected, "u {u}");
+            assert!(weights[i] > 0.0 && (0.0..1.0).contains(&f));
+        }
     }
 
     #[test]
@@ -630,6 +829,7 @@ mod tests {
         let loaded = EnvironmentMap::from_lighting(&lighting(Environment::File { path: file("good.exr") })).unwrap();
         let direct = EnvironmentMap::from_image(&img, 1.0, 0.0, "x").unwrap();
         assert_eq!(loaded.texels, direct.texels);
+        assert_eq!(loaded.cell_density, direct.cell_density);
     }
 
     #[test]

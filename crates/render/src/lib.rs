@@ -5,5 +5,6 @@
 
 pub mod env;
 pub mod io;
+pub mod math;
 pub mod set;
 pub mod tracer;

@@ -9,7 +9,7 @@
 //! with survival probability equal to the largest channel of the throughput (at most 1,
 //! at least 5 %).
 
-use std::f64::consts::{FRAC_1_PI, PI};
+use std::f64::consts::FRAC_1_PI;
 
 use glam::{DQuat, DVec3};
 
@@ -17,6 +17,7 @@ use super::intersect::{Geometry, Hit, Ray, Surface, spawn_ray};
 use super::material::Shader;
 use super::sampler::{PixelSampler, dim};
 use crate::env::EnvironmentMap;
+use crate::math::sin_cos_turns;
 
 /// Spread (radians) of the cone a sample stands for after a diffuse bounce, for texture
 /// filtering of indirect hits: diffuse light averages over a wide area.
@@ -58,8 +59,7 @@ fn basis(n: DVec3) -> (DVec3, DVec3) {
 #[inline]
 pub fn cosine_sample(n: DVec3, u: [f64; 2]) -> (DVec3, f64) {
     let r = u[0].sqrt();
-    let phi = 2.0 * PI * u[1];
-    let (s, c) = phi.sin_cos();
+    let (s, c) = sin_cos_turns(u[1]);
     let z = (1.0 - u[0]).max(0.0).sqrt();
     let (t, b) = basis(n);
     let d = (t * (r * c) + b * (r * s) + n * z).normalize();
@@ -103,9 +103,12 @@ impl PathTracer<'_> {
         let mut bounce = 0u32;
         loop {
             let Some(mut hit) = geom.intersect(&ray, skip) else {
-                let (le, env_pdf) = self.env.radiance_and_pdf(ray.dir);
-                let w = if bounce == 0 { 1.0 } else { power_heuristic(prev_bsdf_pdf, env_pdf) };
-                l += beta * le * w;
+                if bounce == 0 {
+                    l += beta * self.env.radiance(ray.dir);
+                } else {
+                    let (le, env_pdf) = self.env.radiance_and_pdf(ray.dir);
+                    l += beta * le * power_heuristic(prev_bsdf_pdf, env_pdf);
+                }
                 break;
             };
             if bounce == self.max_bounces {
@@ -130,7 +133,7 @@ impl PathTracer<'_> {
                     let shadow = spawn_ray(&hit, s.direction);
                     if !geom.occluded(&shadow, leave_skip) {
                         let w = power_heuristic(s.pdf, cos * FRAC_1_PI);
-                        l += beta * albedo * s.radiance * (cos * FRAC_1_PI * w / s.pdf);
+                        l += beta * albedo * self.env.sample_radiance(&s) * (cos * FRAC_1_PI * w / s.pdf);
                     }
                 }
             }

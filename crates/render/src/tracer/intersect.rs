@@ -87,6 +87,23 @@ pub fn intersect_sphere(ray: &Ray, centre: DVec3, radius: f64) -> Option<f64> {
     }
 }
 
+/// Whether the ray meets the sphere at some `t > 0`, without computing where: the roots'
+/// product is `c = |f|^2 - r^2` and their sum `2 b`, so one is positive when `c < 0`
+/// (the origin is inside) or, otherwise, when `b > 0`. Same discriminant as
+/// [`intersect_sphere`], no square root or division.
+#[inline]
+pub fn sphere_blocks(ray: &Ray, centre: DVec3, radius: f64) -> bool {
+    let f = ray.origin - centre;
+    let b = -f.dot(ray.dir);
+    let v = f + b * ray.dir;
+    let disc = radius * radius - v.length_squared();
+    if disc.is_nan() || disc < 0.0 {
+        return false;
+    }
+    let c = f.length_squared() - radius * radius;
+    c < 0.0 || b > 0.0
+}
+
 /// Distance to the floor plane, or `None` for rays parallel to it or pointing away.
 #[inline]
 pub fn intersect_floor(ray: &Ray, height: f64) -> Option<f64> {
@@ -115,8 +132,8 @@ impl Geometry {
     /// Whether anything blocks the ray (shadow rays towards the environment).
     #[inline]
     pub fn occluded(&self, ray: &Ray, skip: Option<Surface>) -> bool {
-        (skip != Some(Surface::Sphere) && intersect_sphere(ray, self.centre, self.radius).is_some())
-            || (skip != Some(Surface::Floor) && intersect_floor(ray, self.floor_height).is_some())
+        (skip != Some(Surface::Floor) && intersect_floor(ray, self.floor_height).is_some())
+            || (skip != Some(Surface::Sphere) && sphere_blocks(ray, self.centre, self.radius))
     }
 
     fn sphere_hit(&self, ray: &Ray, t: f64) -> Hit {
@@ -169,6 +186,18 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn blocking_test_agrees_with_the_intersection(
+            ox in -2.0f64..2.0, oy in -2.0f64..2.0, oz in -2.0f64..2.0,
+            dx in -1.0f64..1.0, dy in -1.0f64..1.0, dz in -1.0f64..1.0, r in 0.01f64..1.5,
+        ) {
+            let dir = DVec3::new(dx, dy, dz);
+            prop_assume!(dir.length() > 1e-3);
+            let ray = Ray { origin: DVec3::new(ox, oy, oz), dir: dir.normalize() };
+            let centre = DVec3::new(0.1, 0.2, -0.3);
+            prop_assert_eq!(sphere_blocks(&ray, centre, r), intersect_sphere(&ray, centre, r).is_some());
+        }
+
         #[test]
         fn grazing_rays_give_finite_hits_on_the_surface(
             z in -1.0e3f64..-0.5, y in -1.0f64..1.0, eps in -1e-9f64..1e-9, dx in -1e-3f64..1e-3,

@@ -14,6 +14,8 @@ use glam::DVec3;
 use study::scene::Material;
 use study::seed::splitmix64;
 
+use crate::math::floor;
+
 /// A material prepared for fast evaluation.
 #[derive(Clone, Debug)]
 pub enum Shader {
@@ -90,7 +92,7 @@ impl Shader {
                 let lat = local.y.clamp(-1.0, 1.0).asin(); // [-pi/2, pi/2]
                 let u = (lon / (2.0 * PI) + 0.5) * around;
                 let v = (lat / PI + 0.5) * pole_to_pole;
-                if (u.floor() as i64 + v.floor() as i64).rem_euclid(2) == 0 { *a } else { *b }
+                if (floor(u) as i64 + floor(v) as i64).rem_euclid(2) == 0 { *a } else { *b }
             }
             Shader::Noise { a, b, base_frequency, octaves, seed } => {
                 let n = filtered_noise(local, *base_frequency, *octaves, *seed, footprint);
@@ -167,7 +169,7 @@ fn fade(t: f64) -> f64 {
 
 /// 3D gradient noise of one octave, zero at lattice points, about [-1, 1].
 pub fn gradient_noise(p: DVec3, seed: u32) -> f64 {
-    let cell = p.floor();
+    let cell = DVec3::new(floor(p.x), floor(p.y), floor(p.z));
     let f = p - cell;
     let (ix, iy, iz) = (cell.x as i64, cell.y as i64, cell.z as i64);
     let (u, v, w) = (fade(f.x), fade(f.y), fade(f.z));

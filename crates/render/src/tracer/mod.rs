@@ -88,6 +88,7 @@ pub fn render_frame(scene: &FrameScene, env: &EnvironmentMap) -> FrameOutput {
         russian_roulette_from: scene.integrator.russian_roulette_from,
     };
     let spp = scene.samples_per_pixel;
+    let dims = dim::BOUNCE_BASE + dim::PER_BOUNCE * scene.integrator.max_bounces;
     let mut eyes = Vec::with_capacity(scene.views.len());
     let mut nonfinite = 0u64;
     let mut samples = 0u64;
@@ -105,7 +106,7 @@ pub fn render_frame(scene: &FrameScene, env: &EnvironmentMap) -> FrameOutput {
                 let mut bad = 0u64;
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        let mut sampler = PixelSampler::new(view.seed, x, y, w);
+                        let mut sampler = PixelSampler::new(view.seed, x, y, w, dims);
                         let mut sum = DVec3::ZERO;
                         for i in 0..spp {
                             sampler.start_sample(i);
