@@ -755,7 +755,7 @@ impl RunnerApp {
         match pb.update(now) {
             Screen::Frame { frame, .. } => {
                 ui.image(egui::load::SizedTexture::new(loaded.textures[&id][frame].id(), size));
-                repaint_at(ui.ctx(), pb, now);
+                repaint_at(ui.ctx(), pb, now, 1.0 / refresh_hz);
             }
             _ => {
                 blank(ui, size, "");
@@ -804,7 +804,7 @@ impl RunnerApp {
                 self.refresh_intervals_ms.push((now - prev) * 1000.0);
             }
             self.last_refresh = Some(now);
-            repaint_at(ui.ctx(), pb, now);
+            repaint_at(ui.ctx(), pb, now, 1.0 / refresh);
         }
         if trial.practice {
             ui.label(RichText::new("Practice trial (not counted)").italics());
@@ -897,12 +897,16 @@ impl RunnerApp {
     }
 }
 
-/// Asks for the next redraw when the screen next changes (the next frame or the end of a
-/// gap), instead of redrawing continuously: a frame in between would show the same image.
-fn repaint_at(ctx: &egui::Context, playback: &Playback, now: f64) {
-    match playback.next_change() {
-        Some(t) => ctx.request_repaint_after(std::time::Duration::from_secs_f64((t - now).max(0.0))),
-        None => ctx.request_repaint(),
+/// Asks for the next redraw in time for the screen's next change (the next frame or the end
+/// of a gap) instead of redrawing continuously in between, when a redraw would show the
+/// same image. eframe counts a requested delay from the end of the current frame, after it
+/// was drawn and presented, so the redraw is asked for one refresh interval before the change
+/// is due; from there frames follow back to back (locked to the display's refresh where
+/// presentation waits for it) until the change is on screen.
+fn repaint_at(ctx: &egui::Context, playback: &Playback, now: f64, refresh_s: f64) {
+    match playback.next_change().map(|t| t - now - refresh_s) {
+        Some(wait) if wait > 0.0 => ctx.request_repaint_after(std::time::Duration::from_secs_f64(wait)),
+        _ => ctx.request_repaint(),
     }
 }
 
