@@ -86,6 +86,9 @@ struct Tables {
     threshold: [f32; 257],
     /// `coarse[i] = linear_to_srgb(i / BINS)`, the code of any `l` in bin `i` or one less.
     coarse: [u8; BINS + 1],
+    /// `split[i] = threshold[coarse[i] + 1]`: from there on bin `i` has the next code (kept per
+    /// bin so the two loads of [`Tables::encode`] do not wait on each other).
+    split: [f32; BINS + 1],
 }
 
 const BINS: usize = 4096;
@@ -110,7 +113,8 @@ impl Tables {
         let coarse: [u8; BINS + 1] = std::array::from_fn(|i| linear_to_srgb(i as f32 / BINS as f32));
         // The single comparison in `encode` needs every bin to cross at most one code boundary.
         assert!(coarse.windows(2).all(|w| w[1] - w[0] <= 1), "sRGB bins too coarse");
-        Tables { to_linear, threshold, coarse }
+        let split = std::array::from_fn(|i| threshold[usize::from(coarse[i]) + 1]);
+        Tables { to_linear, threshold, coarse, split }
     }
 
     fn lin(&self, p: &[u8; 4]) -> [f32; 3] {
@@ -120,8 +124,8 @@ impl Tables {
     /// [`linear_to_srgb`] by table.
     fn encode(&self, l: f32) -> u8 {
         let l = if l.is_finite() { l.clamp(0.0, 1.0) } else { 0.0 };
-        let c = self.coarse[(l * BINS as f32) as usize];
-        c + u8::from(l >= self.threshold[usize::from(c) + 1])
+        let i = (l * BINS as f32) as usize;
+        self.coarse[i] + u8::from(l >= self.split[i])
     }
 }
 
