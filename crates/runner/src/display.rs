@@ -81,13 +81,10 @@ pub fn linear_to_srgb(l: f32) -> u8 {
 /// is monotonic), with no `powf` per pixel, in debug builds too.
 struct Tables {
     to_linear: [f32; 256],
-    /// `threshold[c]`: the smallest `l` in [0, 1] with `linear_to_srgb(l) >= c` (c >= 1);
-    /// `threshold[256]` is infinite.
-    threshold: [f32; 257],
     /// `coarse[i] = linear_to_srgb(i / BINS)`, the code of any `l` in bin `i` or one less.
     coarse: [u8; BINS + 1],
-    /// `split[i] = threshold[coarse[i] + 1]`: from there on bin `i` has the next code (kept per
-    /// bin so the two loads of [`Tables::encode`] do not wait on each other).
+    /// `split[i] = thresholds()[coarse[i] + 1]`: from there on bin `i` has the next code (kept
+    /// per bin so the two loads of [`Tables::encode`] do not wait on each other).
     split: [f32; BINS + 1],
 }
 
@@ -95,26 +92,32 @@ const BINS: usize = 4096;
 
 static TABLES: std::sync::LazyLock<Tables> = std::sync::LazyLock::new(Tables::new);
 
+/// `thresholds()[c]`: the smallest `l` in [0, 1] with `linear_to_srgb(l) >= c` (c >= 1), by
+/// bisection over the bit patterns of non-negative floats, which are ordered like the floats;
+/// `thresholds()[256]` is infinite.
+fn thresholds() -> [f32; 257] {
+    std::array::from_fn(|c| {
+        if c > 255 {
+            return f32::INFINITY;
+        }
+        let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if usize::from(linear_to_srgb(f32::from_bits(mid))) >= c { hi = mid } else { lo = mid + 1 }
+        }
+        f32::from_bits(lo)
+    })
+}
+
 impl Tables {
     fn new() -> Self {
         let to_linear = std::array::from_fn(|i| srgb_to_linear(i as u8));
-        // Bisection over the bit patterns of non-negative floats, which are ordered like the floats.
-        let threshold = std::array::from_fn(|c| {
-            if c > 255 {
-                return f32::INFINITY;
-            }
-            let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
-            while lo < hi {
-                let mid = lo + (hi - lo) / 2;
-                if usize::from(linear_to_srgb(f32::from_bits(mid))) >= c { hi = mid } else { lo = mid + 1 }
-            }
-            f32::from_bits(lo)
-        });
+        let threshold = thresholds();
         let coarse: [u8; BINS + 1] = std::array::from_fn(|i| linear_to_srgb(i as f32 / BINS as f32));
         // The single comparison in `encode` needs every bin to cross at most one code boundary.
         assert!(coarse.windows(2).all(|w| w[1] - w[0] <= 1), "sRGB bins too coarse");
         let split = std::array::from_fn(|i| threshold[usize::from(coarse[i]) + 1]);
-        Tables { to_linear, threshold, coarse, split }
+        Tables { to_linear, coarse, split }
     }
 
     fn lin(&self, p: &[u8; 4]) -> [f32; 3] {
@@ -363,8 +366,9 @@ mod tests {
             checked += 1;
         }
         assert!(checked > 3_000_000);
+        let threshold = thresholds();
         for c in 1..=255u8 {
-            let t = TABLES.threshold[usize::from(c)];
+            let t = threshold[usize::from(c)];
             let below = f32::from_bits(t.to_bits() - 1);
             assert_eq!((linear_to_srgb(t), linear_to_srgb(below)), (c, c - 1), "code {c}");
             assert_eq!((linear_to_srgb_fast(t), linear_to_srgb_fast(below)), (c, c - 1), "code {c}");
