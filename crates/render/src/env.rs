@@ -28,7 +28,7 @@ use glam::DVec3;
 use study::scene::{Environment, Lighting};
 
 use crate::io::{LinearImage, decode_exr, decode_hdr};
-use crate::math::{acos_approx, atan2_approx, sin_cos_turns};
+use crate::math::{sin_cos_small, sin_cos_turns};
 
 /// Errors of building an environment map; each names the file (when there is one) and
 /// what is wrong with it.
@@ -97,10 +97,19 @@ pub enum EnvError {
 pub struct EnvSample {
     /// Unit world direction towards the environment.
     pub direction: DVec3,
-    /// Probability density per unit solid angle.
-    pub pdf: f64,
+    /// Density over the unit square of map coordinates.
+    pub density: f64,
+    /// Solid angle per unit area of map coordinates there (`2 pi^2 sin theta`, > 0).
+    pub jacobian: f64,
     /// The map pixel the direction falls in.
     texel: usize,
+}
+
+impl EnvSample {
+    /// Probability density per unit solid angle.
+    pub fn pdf(&self) -> f64 {
+        self.density / self.jacobian
+    }
 }
 
 /// A latitude-longitude radiance map placed in the world, ready for look-ups and
@@ -111,8 +120,9 @@ pub struct EnvironmentMap {
     height: u32,
     /// Per pixel: radiance, already scaled by the lighting's intensity.
     texels: Vec<[f32; 3]>,
-    /// Pixels per side of a distribution cell (a power of two).
+    /// Pixels per side of a distribution cell (a power of two), and its log2.
     cell: u32,
+    cell_shift: u32,
     /// Distribution size in cells.
     dist_width: u32,
     dist_height: u32,
@@ -125,18 +135,71 @@ pub struct EnvironmentMap {
     /// to 1.
     marginal_cdf: Vec<f64>,
     /// Guide table of the marginal (see [`guide_table`]).
-    marginal_guide: Vec<u32>,
+    marginal_guide: Vec<u16>,
     /// Per distribution row, cumulative cell weights, `dist_width + 1` entries from 0 to 1
     /// (a uniform row where the row has no weight).
     conditional_cdf: Vec<f32>,
     /// Per distribution row, the guide table of its conditional, `dist_width` entries.
-    conditional_guide: Vec<u32>,
+    conditional_guide: Vec<u16>,
     /// Whether any pixel has weight (a black map cannot be sampled).
     samplable: bool,
     /// `cos theta` of the row edges, `height + 1` entries from 1 down to -1.
     row_edge_cos: Vec<f64>,
     /// `(sin phi, cos phi)` of the column edges, `width + 1` entries.
     col_edge: Vec<(f64, f64)>,
+    /// The first row of each of `ROW_BINS_PER_ROW x height` equal bins of `1 - cos theta`
+    /// over [0, 2].
+    row_bins: Vec<u32>,
+    /// The first column of each of `COL_BINS_PER_COL x width` equal bins of
+    /// [`pseudo_angle`] over [0, 4).
+    col_bins: Vec<u32>,
+    /// `(sin theta, cos theta)` of the distribution's row edges, `dist_height + 1` entries.
+    dist_row_sc: Vec<(f64, f64)>,
+    /// `(sin phi, cos phi)` of the distribution's column edges, `dist_width + 1` entries.
+    dist_col_sc: Vec<(f64, f64)>,
+}
+
+/// Bins per map row of the table that starts the row search (see `texel_of`): at the
+/// equator a bin is far narrower than a row; at the poles, where rows crowd together in
+/// `cos theta`, a bin spans a few.
+const ROW_BINS_PER_ROW: u32 = 16;
+/// Bins per map column of the table that starts the column search.
+const COL_BINS_PER_COL: u32 = 4;
+
+/// A number in [0, 4) that grows monotonically with the angle `atan2(a, b)` taken in
+/// [0, 2 pi): per quadrant, the position along the diamond `|a| + |b| = 1`.
+#[inline]
+fn pseudo_angle(a: f64, b: f64) -> f64 {
+    let sum = a.abs() + b.abs();
+    if sum == 0.0 {
+        return 0.0;
+    }
+    let r = a / sum;
+    // b >= 0: quadrants [0, 1) (a >= 0) and [3, 4) (a < 0); b < 0: [1, 3).
+    if b >= 0.0 { if a >= 0.0 { r } else { 4.0 + r } } else { 2.0 - r }
+}
+
+/// A direction `(a, b)` whose [`pseudo_angle`] is `p`.
+fn pseudo_angle_direction(p: f64) -> (f64, f64) {
+    match p {
+        p if p < 1.0 => (p, 1.0 - p),
+        p if p < 3.0 => (2.0 - p, -(1.0 - (2.0 - p).abs())),
+        p => (p - 4.0, 1.0 - (4.0 - p)),
+    }
+}
+
+/// Distributions with at least this many rows have cells small enough (at most pi / 128
+/// on a side) for [`sin_cos_small`].
+const SMALL_CELL_ROWS: usize = 128;
+
+/// Where a direction meets the map.
+struct TexelHit {
+    /// Pixel index.
+    index: usize,
+    /// Distribution cell index.
+    cell: usize,
+    /// `sin theta` of the direction.
+    sin_theta: f64,
 }
 
 /// Rows of the sampling distribution at most (see the module documentation).
@@ -266,17 +329,48 @@ impl EnvironmentMap {
             }
         }
         let marginal_guide = guide_table(&marginal_cdf);
+        // Cell columns fit 16 bits (a map would need more than 2^17 pixels across to
+        // exceed them); half-size guide entries keep the distribution in the caches.
+        if wd > usize::from(u16::MAX) {
+            return Err(EnvError::Parameter(format!(
+                "{name}: a map {w} pixels wide is too large to sample (at most {} pixels)",
+                u32::from(u16::MAX) * f
+            )));
+        }
         let conditional_guide = conditional_cdf.chunks_exact(wd + 1).flat_map(guide_table).collect();
         let texels = radiance.iter().map(|r| [r.x as f32, r.y as f32, r.z as f32]).collect();
         let row_edge_cos = (0..=h).map(|j| sin_cos_turns(0.5 * f64::from(j) / f64::from(h)).1).collect();
-        let col_edge = (0..=w).map(|j| sin_cos_turns(f64::from(j) / f64::from(w))).collect();
+        let col_edge: Vec<(f64, f64)> = (0..=w).map(|j| sin_cos_turns(f64::from(j) / f64::from(w))).collect();
+        let row_bins = (0..ROW_BINS_PER_ROW * h)
+            .map(|k| {
+                let cos = 1.0 - 2.0 * f64::from(k) / f64::from(ROW_BINS_PER_ROW * h);
+                ((cos.clamp(-1.0, 1.0).acos() / PI * f64::from(h)) as u32).min(h - 1)
+            })
+            .collect();
+        let col_bins = (0..COL_BINS_PER_COL * w)
+            .map(|k| {
+                let p = 4.0 * f64::from(k) / f64::from(COL_BINS_PER_COL * w);
+                // The direction at pseudo-angle p, and its column.
+                let (a, b) = pseudo_angle_direction(p);
+                let mut phi = a.atan2(b);
+                if phi < 0.0 {
+                    phi += 2.0 * PI;
+                }
+                ((phi / (2.0 * PI) * f64::from(w)) as u32).min(w - 1)
+            })
+            .collect();
         Ok(EnvironmentMap {
             row_edge_cos,
             col_edge,
+            row_bins,
+            col_bins,
+            dist_row_sc: (0..=hd).map(|j| sin_cos_turns(0.5 * j as f64 / hd as f64)).collect(),
+            dist_col_sc: (0..=wd).map(|j| sin_cos_turns(j as f64 / wd as f64)).collect(),
             width: w,
             height: h,
             texels,
             cell: f,
+            cell_shift: f.trailing_zeros(),
             dist_width: wd as u32,
             dist_height: hd as u32,
             cell_density,
@@ -337,44 +431,47 @@ impl EnvironmentMap {
     }
 
     /// The texel a finite, non-zero world direction falls in, and the direction's
-    /// `sin theta`. Fast approximate inverse trigonometry finds the row and column to
-    /// within a fraction of a texel; comparisons with the texel edges then settle the
-    /// exact one, so the result equals the exact look-up except on the edges themselves.
+    /// `sin theta`. Tables indexed by `1 - cos theta` and by a pseudo-angle (monotonic in
+    /// `phi`, one division, no trigonometry) give the row and column to within a few
+    /// texels; comparisons with the texel edges then settle the exact one, so the result
+    /// equals the exact look-up except on the edges themselves.
     #[inline]
-    fn texel_of(&self, d: DVec3) -> (usize, f64) {
+    fn texel_of(&self, d: DVec3) -> TexelHit {
         let m = self.to_map(d);
         let inv_len = 1.0 / m.length();
         let cos_theta = (m.y * inv_len).clamp(-1.0, 1.0);
         let sin_theta = (m.x * m.x + m.z * m.z).sqrt() * inv_len;
         let (w, h) = (self.width as usize, self.height as usize);
         let edges = &self.row_edge_cos;
-        let mut y = ((acos_approx(cos_theta) * (h as f64 / PI)) as usize).min(h - 1);
-        for _ in 0..2 {
-            if y > 0 && cos_theta > edges[y] {
-                y -= 1;
-            } else if y + 1 < h && cos_theta <= edges[y + 1] {
-                y += 1;
-            }
+        let bins = self.row_bins.len();
+        let k = (((1.0 - cos_theta) * (0.5 * bins as f64)) as usize).min(bins - 1);
+        let mut y = self.row_bins[k] as usize;
+        while y + 1 < h && cos_theta <= edges[y + 1] {
+            y += 1;
+        }
+        while y > 0 && cos_theta > edges[y] {
+            y -= 1;
         }
         // phi = atan2(m.x, -m.z); the point lies after column edge j when
         // sin(phi - phi_j) = m.x cos phi_j + m.z sin phi_j >= 0.
-        let mut phi = atan2_approx(m.x, -m.z);
-        if phi < 0.0 {
-            phi += 2.0 * PI;
-        }
-        let mut x = ((phi * (w as f64 / (2.0 * PI))) as usize).min(w - 1);
+        let bins = self.col_bins.len();
+        let k = ((pseudo_angle(m.x, -m.z) * (0.25 * bins as f64)) as usize).min(bins - 1);
+        let mut x = self.col_bins[k] as usize;
         let after = |j: usize| {
             let (s, c) = self.col_edge[j];
             m.x * c + m.z * s >= 0.0
         };
-        for _ in 0..2 {
+        for _ in 0..4 {
             if !after(x) {
-                x = (x + w - 1) % w;
+                x = if x == 0 { w - 1 } else { x - 1 };
             } else if after(x + 1) {
-                x = (x + 1) % w;
+                x = if x + 1 == w { 0 } else { x + 1 };
+            } else {
+                break;
             }
         }
-        (y * w + x, sin_theta)
+        let shift = self.cell_shift;
+        TexelHit { index: y * w + x, cell: (y >> shift) * self.dist_width as usize + (x >> shift), sin_theta }
     }
 
     /// Radiance arriving from world direction `d` (need not be normalised; a zero or
@@ -383,7 +480,7 @@ impl EnvironmentMap {
         if !d.is_finite() || d == DVec3::ZERO {
             return DVec3::ZERO;
         }
-        texel_radiance(&self.texels[self.texel_of(d).0])
+        texel_radiance(&self.texels[self.texel_of(d).index])
     }
 
     /// Radiance arriving from the direction of a sample drawn from this map.
@@ -398,26 +495,23 @@ impl EnvironmentMap {
         self.radiance_and_pdf(d).1
     }
 
-    /// Radiance and sampling density of a direction in one look-up.
+    /// Radiance, density over map coordinates and `2 pi^2 sin theta` of a direction in one
+    /// look-up (so a caller can form ratios of densities without dividing twice); the
+    /// density is 0 where the map is black or at the poles.
     #[inline]
-    pub fn radiance_and_pdf(&self, d: DVec3) -> (DVec3, f64) {
+    pub fn radiance_and_density(&self, d: DVec3) -> (DVec3, f64, f64) {
         if !d.is_finite() || d == DVec3::ZERO {
-            return (DVec3::ZERO, 0.0);
+            return (DVec3::ZERO, 0.0, 0.0);
         }
-        let (index, sin_theta) = self.texel_of(d);
-        let pdf = if self.samplable && sin_theta > 0.0 {
-            f64::from(self.cell_density[self.cell_of(index)]) / (2.0 * PI * PI * sin_theta)
-        } else {
-            0.0
-        };
-        (texel_radiance(&self.texels[index]), pdf)
+        let hit = self.texel_of(d);
+        let density = if self.samplable && hit.sin_theta > 0.0 { f64::from(self.cell_density[hit.cell]) } else { 0.0 };
+        (texel_radiance(&self.texels[hit.index]), density, 2.0 * PI * PI * hit.sin_theta)
     }
 
-    /// The distribution cell holding pixel `index`.
-    #[inline]
-    fn cell_of(&self, index: usize) -> usize {
-        let (w, f) = (self.width as usize, self.cell as usize);
-        (index / w / f) * self.dist_width as usize + (index % w) / f
+    /// Radiance and sampling density of a direction in one look-up.
+    pub fn radiance_and_pdf(&self, d: DVec3) -> (DVec3, f64) {
+        let (radiance, density, jacobian) = self.radiance_and_density(d);
+        (radiance, if density > 0.0 { density / jacobian } else { 0.0 })
     }
 
     /// Picks a direction with density proportional to luminance x sin(theta) per pixel,
@@ -435,10 +529,17 @@ impl EnvironmentMap {
         if density <= 0.0 {
             return None;
         }
-        let uu = (x as f64 + fx) / wd as f64;
-        let vv = (y as f64 + fy) / hd as f64;
-        let (sin_theta, cos_theta) = sin_cos_turns(0.5 * vv);
-        let (sin_phi, cos_phi) = sin_cos_turns(uu);
+        let ((sin_theta, cos_theta), (sin_phi, cos_phi)) = if hd >= SMALL_CELL_ROWS {
+            // theta = theta_y + d_theta with the cell edge's sine and cosine tabulated and
+            // the small offset's by a short series.
+            let add = |(s0, c0): (f64, f64), (sd, cd): (f64, f64)| (s0 * cd + c0 * sd, c0 * cd - s0 * sd);
+            (
+                add(self.dist_row_sc[y], sin_cos_small(fy * (PI / hd as f64))),
+                add(self.dist_col_sc[x], sin_cos_small(fx * (2.0 * PI / wd as f64))),
+            )
+        } else {
+            (sin_cos_turns(0.5 * (y as f64 + fy) / hd as f64), sin_cos_turns((x as f64 + fx) / wd as f64))
+        };
         if sin_theta <= 0.0 {
             return None;
         }
@@ -449,7 +550,8 @@ impl EnvironmentMap {
         let m = DVec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta);
         Some(EnvSample {
             direction: self.to_world(m),
-            pdf: density / (2.0 * PI * PI * sin_theta),
+            density,
+            jacobian: 2.0 * PI * PI * sin_theta,
             texel: py * self.width as usize + px,
         })
     }
@@ -481,7 +583,7 @@ impl CdfValue for f32 {
 /// A guide table for inverting a cumulative distribution of `n + 1` entries: entry `k` is
 /// the interval holding `u = k / n`, so a search for `u` starts at most a few intervals
 /// before its answer (a binary search over a large map misses the cache at every step).
-fn guide_table<T: CdfValue>(cdf: &[T]) -> Vec<u32> {
+fn guide_table<T: CdfValue>(cdf: &[T]) -> Vec<u16> {
     let n = cdf.len() - 1;
     let mut guide = Vec::with_capacity(n);
     let mut i = 0;
@@ -490,21 +592,21 @@ fn guide_table<T: CdfValue>(cdf: &[T]) -> Vec<u32> {
         while i + 1 < n && cdf[i + 1].value() <= u {
             i += 1;
         }
-        guide.push(i as u32);
+        guide.push(i as u16);
     }
     guide
 }
 
 /// Inverts a cumulative distribution of `n + 1` entries: the chosen interval and the
 /// fractional position inside it. Intervals of zero width are never chosen.
-fn sample_cdf<T: CdfValue>(cdf: &[T], guide: &[u32], u: f64) -> (usize, f64) {
+fn sample_cdf<T: CdfValue>(cdf: &[T], guide: &[u16], u: f64) -> (usize, f64) {
     let n = cdf.len() - 1;
     // The answer, the first index i with cdf[i + 1] > u, lies between the guide entries
     // of u's cell and of the next cell: a binary search between them costs a few steps
     // even where one cell spans many intervals of a peaked map.
     let k = ((u * n as f64) as usize).min(n - 1);
-    let lo = guide[k] as usize;
-    let hi = if k + 1 < n { (guide[k + 1] as usize).max(lo) } else { n - 1 };
+    let lo = usize::from(guide[k]);
+    let hi = if k + 1 < n { usize::from(guide[k + 1]).max(lo) } else { n - 1 };
     let mut i = lo + cdf[lo + 1..=hi].partition_point(|&c| c.value() <= u);
     // Rounding of u * n can put u a hair outside its cell: finish by scanning.
     while i + 1 < n && cdf[i + 1].value() <= u {
@@ -647,8 +749,8 @@ mod tests {
         let mut next = uniforms(0x1234_5678_u64);
         for _ in 0..n {
             let s = map.sample([next(), next()]).unwrap();
-            assert!(s.pdf.is_finite() && s.pdf > 0.0 && s.direction.is_finite());
-            assert!((s.pdf - map.pdf(s.direction)).abs() <= 1e-6 * s.pdf);
+            assert!(s.pdf().is_finite() && s.pdf() > 0.0 && s.direction.is_finite());
+            assert!((s.pdf() - map.pdf(s.direction)).abs() <= 1e-6 * s.pdf());
             let (u, v) = map.uv(s.direction);
             counts[map.pixel_of(u, v)] += 1.0;
         }
@@ -677,13 +779,13 @@ mod tests {
             if let Some(s) = map.sample([u0, u1]) {
                 let (_, v) = map.uv(s.direction);
                 assert_ne!((v * 32.0) as usize, 5, "sampled a black row");
-                assert!(s.pdf.is_finite() && map.sample_radiance(&s).is_finite());
+                assert!(s.pdf().is_finite() && map.sample_radiance(&s).is_finite());
             }
         }
         for u in [0.0, 1.0 - f64::EPSILON, 0.5] {
             for v in [0.0, 1.0 - f64::EPSILON] {
                 if let Some(s) = map.sample([u, v]) {
-                    assert!(s.pdf.is_finite() && s.direction.is_finite());
+                    assert!(s.pdf().is_finite() && s.direction.is_finite());
                 }
             }
         }
@@ -706,11 +808,11 @@ mod tests {
         let mut radiance_mismatches = 0;
         for _ in 0..n {
             let s = map.sample([next(), next()]).unwrap();
-            assert!((s.pdf - map.pdf(s.direction)).abs() <= 1e-6 * s.pdf);
+            assert!((s.pdf() - map.pdf(s.direction)).abs() <= 1e-6 * s.pdf());
             if map.sample_radiance(&s) != map.radiance(s.direction) {
                 radiance_mismatches += 1;
             }
-            counts[map.cell_of(map.texel_of(s.direction).0)] += 1.0;
+            counts[map.texel_of(s.direction).cell] += 1.0;
         }
         // Only directions on a pixel's edge may round to the neighbour.
         assert!(radiance_mismatches < n / 10_000, "{radiance_mismatches} mismatches");
@@ -723,6 +825,20 @@ mod tests {
             }
         }
         assert!(dof > 1000 && chi2 < dof as f64 + 5.0 * (2.0 * dof as f64).sqrt(), "chi2 {chi2} dof {dof}");
+    }
+
+    #[test]
+    fn pseudo_angle_is_monotonic_in_phi_and_inverted_by_its_direction() {
+        let mut last = -1.0;
+        for k in 0..100_000 {
+            let phi = 2.0 * PI * k as f64 / 100_000.0;
+            let p = pseudo_angle(phi.sin(), phi.cos());
+            assert!((0.0..4.0).contains(&p) && p >= last, "phi {phi}: {p} after {last}");
+            last = p;
+            let (a, b) = pseudo_angle_direction(p);
+            assert!((pseudo_angle(a, b) - p).abs() < 1e-12, "p {p}");
+            assert!((a.atan2(b).rem_euclid(2.0 * PI) - phi).abs() < 1e-9 || k == 0);
+        }
     }
 
     #[test]
@@ -745,7 +861,7 @@ mod tests {
                     continue;
                 }
                 let (u, v) = map.uv(d);
-                assert_eq!(map.texel_of(d).0, map.pixel_of(u, v), "map {w}: direction {d}");
+                assert_eq!(map.texel_of(d).index, map.pixel_of(u, v), "map {w}: direction {d}");
             }
         }
     }

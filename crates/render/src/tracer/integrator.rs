@@ -62,14 +62,9 @@ pub fn cosine_sample(n: DVec3, u: [f64; 2]) -> (DVec3, f64) {
     let (s, c) = sin_cos_turns(u[1]);
     let z = (1.0 - u[0]).max(0.0).sqrt();
     let (t, b) = basis(n);
-    let d = (t * (r * c) + b * (r * s) + n * z).normalize();
+    // Unit length up to rounding: r^2 + z^2 = 1 over an orthonormal basis.
+    let d = t * (r * c) + b * (r * s) + n * z;
     (d, z * FRAC_1_PI)
-}
-
-#[inline]
-fn power_heuristic(a: f64, b: f64) -> f64 {
-    let (a2, b2) = (a * a, b * b);
-    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
 
 impl PathTracer<'_> {
@@ -106,8 +101,15 @@ impl PathTracer<'_> {
                 if bounce == 0 {
                     l += beta * self.env.radiance(ray.dir);
                 } else {
-                    let (le, env_pdf) = self.env.radiance_and_pdf(ray.dir);
-                    l += beta * le * power_heuristic(prev_bsdf_pdf, env_pdf);
+                    // Power heuristic against the map's density D / J, with one division.
+                    let (le, density, jacobian) = self.env.radiance_and_density(ray.dir);
+                    let w = if density > 0.0 {
+                        let pj = prev_bsdf_pdf * jacobian;
+                        pj * pj / (pj * pj + density * density)
+                    } else {
+                        1.0
+                    };
+                    l += beta * le * w;
                 }
                 break;
             };
@@ -132,8 +134,12 @@ impl PathTracer<'_> {
                 if cos > 0.0 {
                     let shadow = spawn_ray(&hit, s.direction);
                     if !geom.occluded(&shadow, leave_skip) {
-                        let w = power_heuristic(s.pdf, cos * FRAC_1_PI);
-                        l += beta * albedo * self.env.sample_radiance(&s) * (cos * FRAC_1_PI * w / s.pdf);
+                        // f cos / p_light x the power heuristic, with p_light = D / J and the
+                        // BSDF density b = cos / pi: b D J / (D^2 + b^2 J^2).
+                        let b = cos * FRAC_1_PI;
+                        let bj = b * s.jacobian;
+                        let weight = b * s.density * s.jacobian / (s.density * s.density + bj * bj);
+                        l += beta * albedo * self.env.sample_radiance(&s) * weight;
                     }
                 }
             }
@@ -163,5 +169,29 @@ impl PathTracer<'_> {
             spread = spread.max(DIFFUSE_SPREAD);
         }
         l
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cosine_samples_are_unit_vectors_in_the_hemisphere() {
+        let mut x = 5_u64;
+        let mut next = || {
+            x = study::seed::splitmix64(x);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for i in 0..100_000 {
+            let n = if i % 3 == 0 {
+                DVec3::Y
+            } else {
+                DVec3::new(next() - 0.5, next() - 0.5, if i % 3 == 1 { -1e-9 } else { next() - 0.5 }).normalize()
+            };
+            let (d, pdf) = cosine_sample(n, [next(), next()]);
+            assert!((d.length() - 1.0).abs() < 1e-14, "{d} {n}");
+            assert!(d.dot(n) >= -1e-15 && (pdf - d.dot(n).max(0.0) / std::f64::consts::PI).abs() < 1e-12);
+        }
     }
 }
