@@ -128,6 +128,48 @@ fn furnace_with_a_bounce_limit_follows_the_geometric_series() {
     assert_eq!(img.get(16, 17)[0], 0.0, "floor pixel without bounces");
 }
 
+#[test]
+fn each_bounce_multiplies_by_the_albedo_and_the_limit_cuts_the_series() {
+    // Without Russian roulette the paths (directions, light samples, occlusion) do not
+    // depend on the albedo rho shared by the sphere and the floor, so each pixel's
+    // estimate is exactly L (c0 + c1 rho + ... + cB rho^B), where ck collects the paths
+    // that scatter k times. Rendered at B + 2 equally spaced rho, the (B+1)-th finite
+    // difference must vanish (no path scatters more than B times) while the B-th, B! h^B cB,
+    // must not (the camera looks at the sphere's contact with the floor, where light
+    // bounces between the two).
+    let camera = Camera::look_at(DVec3::new(0.35, 0.22, 0.55), DVec3::new(0.0, 0.06, 0.0), 0.05, 0.036, 24, 16);
+    let h = 0.2;
+    for bounces in [1u32, 2, 3] {
+        let images: Vec<LinearImage> = (0..bounces + 2)
+            .map(|k| {
+                let rho = 0.2 + h * f64::from(k);
+                let mut s = scene(camera.clone(), flat(rho), uniform(L), 4);
+                s.floor.albedo = [rho; 3];
+                s.integrator = Integrator { max_bounces: bounces, russian_roulette_from: 100 };
+                render(&s).remove(0)
+            })
+            .collect();
+        let difference = |order: usize, px: usize| -> f64 {
+            // Forward difference of `order` over the first order + 1 images.
+            let mut binomial = 1.0;
+            let mut sum = 0.0;
+            for j in 0..=order {
+                let sign = if (order - j) % 2 == 0 { 1.0 } else { -1.0 };
+                sum += sign * binomial * f64::from(images[j].pixels[px][1]);
+                binomial = binomial * (order - j) as f64 / (j + 1) as f64;
+            }
+            sum
+        };
+        let b = bounces as usize;
+        let pixels = images[0].pixels.len();
+        let beyond = (0..pixels).map(|px| difference(b + 1, px).abs()).fold(0.0, f64::max);
+        let top = (0..pixels).map(|px| difference(b, px).abs()).fold(0.0, f64::max);
+        // f32 pixels: the differences carry rounding of about 2^(B+1) x 6e-8 x L.
+        assert!(beyond < 2e-5 * L, "B = {bounces}: the difference of order {} is {beyond}", b + 1);
+        assert!(top > 1e-3 * L, "B = {bounces}: the difference of order {bounces} is only {top}");
+    }
+}
+
 /// Irradiance of an upward normal under `map` by fine quadrature of the same piecewise
 /// constant map the renderer sees.
 fn irradiance_up(env: &EnvironmentMap) -> DVec3 {
