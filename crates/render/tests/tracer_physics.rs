@@ -153,9 +153,9 @@ fn each_bounce_multiplies_by_the_albedo_and_the_limit_cuts_the_series() {
             // Forward difference of `order` over the first order + 1 images.
             let mut binomial = 1.0;
             let mut sum = 0.0;
-            for j in 0..=order {
-                let sign = if (order - j) % 2 == 0 { 1.0 } else { -1.0 };
-                sum += sign * binomial * f64::from(images[j].pixels[px][1]);
+            for (j, image) in images.iter().enumerate().take(order + 1) {
+                let sign = if (order - j).is_multiple_of(2) { 1.0 } else { -1.0 };
+                sum += sign * binomial * f64::from(image.pixels[px][1]);
                 binomial = binomial * (order - j) as f64 / (j + 1) as f64;
             }
             sum
