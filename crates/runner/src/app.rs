@@ -489,7 +489,8 @@ impl RunnerApp {
         }
         if self.config.autopilot.is_some() {
             match self.phase {
-                Phase::Start if self.ready_to_start() => self.start_session(),
+                // The autopilot (benchmarks) always lets the refresh measurement finish.
+                Phase::Start if self.measuring_done => self.start_session(),
                 Phase::Briefing | Phase::Break => self.next_trial(),
                 Phase::Done => self.phase = Phase::Closed,
                 _ => {}

@@ -78,6 +78,16 @@ pub fn runner_error(e: RunnerError) -> anyhow::Error {
     if e.is_bad_input() { anyhow::Error::new(BadInput(e.to_string())) } else { anyhow::Error::new(e) }
 }
 
+/// Checks a `--refresh-hz` value: a rate in Hz between 1 and 1000.
+pub fn check_refresh_hz(hz: Option<f64>) -> anyhow::Result<()> {
+    match hz {
+        Some(hz) if !(hz.is_finite() && (1.0..=1000.0).contains(&hz)) => {
+            Err(BadInput(format!("--refresh-hz {hz}: expected a refresh rate in Hz between 1 and 1000")).into())
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let path = resolve_experiment(&args.experiment);
@@ -90,11 +100,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Err(BadInput(format!("--display {display}: {} is a mono experiment", definition.name)).into());
     }
     runner::session::check_participant(&args.participant).map_err(runner_error)?;
-    if let Some(hz) = args.refresh_hz
-        && !(hz.is_finite() && (1.0..=1000.0).contains(&hz))
-    {
-        return Err(BadInput(format!("--refresh-hz {hz}: expected a refresh rate in Hz between 1 and 1000")).into());
-    }
+    check_refresh_hz(args.refresh_hz)?;
 
     if let Some(model_text) = &args.simulate {
         let model: ObserverModel = model_text.parse().map_err(runner_error)?;

@@ -12,7 +12,7 @@ use runner::stimuli::{StimulusSet, write_synthetic_set};
 use study::StimulusId;
 use study::experiment::{DisplayMode, ExperimentDefinition};
 
-use crate::cmd::run::runner_error;
+use crate::cmd::run::{check_refresh_hz, runner_error};
 
 /// Arguments.
 #[derive(clap::Args)]
@@ -32,6 +32,11 @@ pub struct Args {
     /// Trials played in the window.
     #[arg(long, default_value_t = 2)]
     trials: usize,
+    /// Refresh rate (Hz) the window's pacing assumes, as `blurlab run --refresh-hz`; by default
+    /// the rate measured on its start screen (which under Xvfb, without a display refresh, is
+    /// how fast the window redraws). The measurement is reported either way.
+    #[arg(long)]
+    refresh_hz: Option<f64>,
     /// Work folder for the synthetic sets (default: a temporary folder, removed afterwards).
     #[arg(long)]
     work: Option<PathBuf>,
@@ -50,6 +55,7 @@ fn definition(dir: &Path, view: &str, samples: &str) -> anyhow::Result<Experimen
 /// Runs the benchmark.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let _ = args.json;
+    check_refresh_hz(args.refresh_hz)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get()));
     let (work, temporary) = match &args.work {
         Some(w) => (w.clone(), false),
@@ -127,6 +133,7 @@ fn measure(args: &Args, work: &Path, threads: usize) -> anyhow::Result<serde_jso
         config.participant = Some("BENCH".into());
         config.seed = Some(1);
         config.autopilot = Some(args.trials);
+        config.refresh_hz = args.refresh_hz;
         config.decode_threads = threads;
         let window_size = config.window_size();
         let app = runner::app::run_window(config, false).map_err(runner_error)?;
