@@ -12,7 +12,7 @@ use std::io::{self, IsTerminal, Write as _};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 use study::design::{Design, DesignError, Preset};
 use study::fsio::{sha256_file, sha256_hex, write_atomic};
 use study::manifest::{
@@ -197,7 +197,7 @@ impl Progress {
         let overall = multi.add(ProgressBar::new(total_cost.max(1)));
         overall.set_style(
             ProgressStyle::with_template(
-                "{prefix:>9} [{elapsed_precise}] {wide_bar} {percent:>3}% ETA {eta_precise} {msg}",
+                "{prefix:>18} [{elapsed_precise}] {wide_bar} {percent:>3}% ETA {eta_precise} {msg}",
             )
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
@@ -211,7 +211,12 @@ impl Progress {
         let multi = self.multi.as_ref()?;
         let bar = multi.add(ProgressBar::new(u64::from(frames)));
         bar.set_style(
-            ProgressStyle::with_template("{prefix:>9} {wide_bar} frame {pos}/{len} {per_sec} ETA {eta}")
+            ProgressStyle::with_template("{prefix:>18} {wide_bar} frame {pos}/{len} {rate} ETA {eta}")
+                .map(|style| {
+                    style.with_key("rate", |state: &ProgressState, w: &mut dyn std::fmt::Write| {
+                        let _ = write!(w, "{:.2} frames/s", state.per_sec());
+                    })
+                })
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         bar.set_prefix(id.to_string());
