@@ -126,8 +126,6 @@ pub struct EnvironmentMap {
     /// Distribution size in cells.
     dist_width: u32,
     dist_height: u32,
-    /// Per cell: sampling density over the unit square of map coordinates.
-    cell_density: Vec<f32>,
     /// World-from-map rotation about +y: cosine and sine.
     rot_cos: f64,
     rot_sin: f64,
@@ -196,8 +194,9 @@ const SMALL_CELL_ROWS: usize = 128;
 struct TexelHit {
     /// Pixel index.
     index: usize,
-    /// Distribution cell index.
-    cell: usize,
+    /// Distribution cell column and row.
+    cell_x: usize,
+    cell_y: usize,
     /// `sin theta` of the direction.
     sin_theta: f64,
 }
@@ -316,18 +315,6 @@ impl EnvironmentMap {
             row[wd] = 1.0;
         }
         marginal_cdf[hd] = 1.0;
-        // The density each cell is actually drawn with, from the tables as stored.
-        let mut cell_density = vec![0.0f32; wd * hd];
-        if samplable {
-            for y in 0..hd {
-                let row = &conditional_cdf[y * (wd + 1)..(y + 1) * (wd + 1)];
-                let p_row = marginal_cdf[y + 1] - marginal_cdf[y];
-                for x in 0..wd {
-                    let p = p_row * (f64::from(row[x + 1]) - f64::from(row[x]));
-                    cell_density[y * wd + x] = (p * (wd * hd) as f64) as f32;
-                }
-            }
-        }
         let marginal_guide = guide_table(&marginal_cdf);
         // Cell columns fit 16 bits (a map would need more than 2^17 pixels across to
         // exceed them); half-size guide entries keep the distribution in the caches.
@@ -373,7 +360,6 @@ impl EnvironmentMap {
             cell_shift: f.trailing_zeros(),
             dist_width: wd as u32,
             dist_height: hd as u32,
-            cell_density,
             rot_cos: rotation_y.cos(),
             rot_sin: rotation_y.sin(),
             marginal_cdf,
@@ -471,7 +457,7 @@ impl EnvironmentMap {
             }
         }
         let shift = self.cell_shift;
-        TexelHit { index: y * w + x, cell: (y >> shift) * self.dist_width as usize + (x >> shift), sin_theta }
+        TexelHit { index: y * w + x, cell_x: x >> shift, cell_y: y >> shift, sin_theta }
     }
 
     /// Radiance arriving from world direction `d` (need not be normalised; a zero or
@@ -504,7 +490,7 @@ impl EnvironmentMap {
             return (DVec3::ZERO, 0.0, 0.0);
         }
         let hit = self.texel_of(d);
-        let density = if self.samplable && hit.sin_theta > 0.0 { f64::from(self.cell_density[hit.cell]) } else { 0.0 };
+        let density = if hit.sin_theta > 0.0 { self.cell_density(hit.cell_x, hit.cell_y) } else { 0.0 };
         (texel_radiance(&self.texels[hit.index]), density, 2.0 * PI * PI * hit.sin_theta)
     }
 
@@ -512,6 +498,20 @@ impl EnvironmentMap {
     pub fn radiance_and_pdf(&self, d: DVec3) -> (DVec3, f64) {
         let (radiance, density, jacobian) = self.radiance_and_density(d);
         (radiance, if density > 0.0 { density / jacobian } else { 0.0 })
+    }
+
+    /// The density over the unit square of map coordinates with which [`Self::sample`]
+    /// draws cell `(x, y)`: computed from the cumulative tables as stored, so it is the
+    /// density samples are actually drawn with, whatever their rounding.
+    #[inline]
+    fn cell_density(&self, x: usize, y: usize) -> f64 {
+        if !self.samplable {
+            return 0.0;
+        }
+        let (wd, hd) = (self.dist_width as usize, self.dist_height as usize);
+        let row = &self.conditional_cdf[y * (wd + 1)..(y + 1) * (wd + 1)];
+        let p_row = self.marginal_cdf[y + 1] - self.marginal_cdf[y];
+        p_row * (f64::from(row[x + 1]) - f64::from(row[x])) * (wd * hd) as f64
     }
 
     /// Picks a direction with density proportional to luminance x sin(theta) per pixel,
@@ -525,7 +525,7 @@ impl EnvironmentMap {
         let (y, fy) = sample_cdf(&self.marginal_cdf, &self.marginal_guide, u[0]);
         let row = &self.conditional_cdf[y * (wd + 1)..(y + 1) * (wd + 1)];
         let (x, fx) = sample_cdf(row, &self.conditional_guide[y * wd..(y + 1) * wd], u[1]);
-        let density = f64::from(self.cell_density[y * wd + x]);
+        let density = self.cell_density(x, y);
         if density <= 0.0 {
             return None;
         }
@@ -757,7 +757,7 @@ mod tests {
         let mut chi2 = 0.0;
         let mut dof = 0;
         for (i, &c) in counts.iter().enumerate() {
-            let expected = f64::from(map.cell_density[i]) / (w * h) as f64 * n as f64;
+            let expected = map.cell_density(i % w, i / w) / (w * h) as f64 * n as f64;
             if expected > 5.0 {
                 chi2 += (c - expected) * (c - expected) / expected;
                 dof += 1;
@@ -812,13 +812,14 @@ mod tests {
             if map.sample_radiance(&s) != map.radiance(s.direction) {
                 radiance_mismatches += 1;
             }
-            counts[map.texel_of(s.direction).cell] += 1.0;
+            let hit = map.texel_of(s.direction);
+            counts[hit.cell_y * wd + hit.cell_x] += 1.0;
         }
         // Only directions on a pixel's edge may round to the neighbour.
         assert!(radiance_mismatches < n / 10_000, "{radiance_mismatches} mismatches");
         let (mut chi2, mut dof) = (0.0, 0);
         for (i, &c) in counts.iter().enumerate() {
-            let expected = f64::from(map.cell_density[i]) / (wd * hd) as f64 * n as f64;
+            let expected = map.cell_density(i % wd, i / wd) / (wd * hd) as f64 * n as f64;
             if expected > 20.0 {
                 chi2 += (c - expected) * (c - expected) / expected;
                 dof += 1;
@@ -945,7 +946,7 @@ mod tests {
         let loaded = EnvironmentMap::from_lighting(&lighting(Environment::File { path: file("good.exr") })).unwrap();
         let direct = EnvironmentMap::from_image(&img, 1.0, 0.0, "x").unwrap();
         assert_eq!(loaded.texels, direct.texels);
-        assert_eq!(loaded.cell_density, direct.cell_density);
+        assert_eq!((&loaded.marginal_cdf, &loaded.conditional_cdf), (&direct.marginal_cdf, &direct.conditional_cdf));
     }
 
     #[test]
