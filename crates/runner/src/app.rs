@@ -22,7 +22,7 @@ use study::response::Task;
 
 use crate::RunnerError;
 use crate::calibration::{Calibration, Layout, Viewing, calibrate, fit_scale, visual_angle_deg};
-use crate::playback::{Playback, RedrawTimer, RefreshEstimate, Screen, estimate_refresh};
+use crate::playback::{Playback, RefreshEstimate, Screen, estimate_refresh};
 use crate::schedule::Trial;
 use crate::session::{Answer, Session, SessionOptions, check_participant};
 use crate::stimuli::{Decoded, StimulusSet, decode_sequence};
@@ -268,7 +268,6 @@ pub struct RunnerApp {
     present_times: Vec<f64>,
     measured: Option<RefreshEstimate>,
     measuring_done: bool,
-    redraw: RedrawTimer,
 }
 
 impl RunnerApp {
@@ -292,7 +291,6 @@ impl RunnerApp {
             present_times: Vec::new(),
             measured: None,
             measuring_done: false,
-            redraw: RedrawTimer::default(),
         }
     }
 
@@ -483,7 +481,6 @@ impl RunnerApp {
     fn draw_ui(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
         let now = ui.input(|i| i.time);
-        self.redraw.frame_started(now);
         if ui.input(|i| i.key_pressed(Key::Escape)) && !matches!(self.phase, Phase::Closed) {
             self.confirm_quit = !self.confirm_quit;
         }
@@ -759,7 +756,7 @@ impl RunnerApp {
         match pb.update(now) {
             Screen::Frame { frame, .. } => {
                 ui.image(egui::load::SizedTexture::new(loaded.textures[&id][frame].id(), size));
-                repaint_at(ui.ctx(), &mut self.redraw, pb, now);
+                repaint_at(ui.ctx(), pb, now, 1.0 / refresh_hz);
             }
             _ => {
                 blank(ui, size, "");
@@ -803,13 +800,12 @@ impl RunnerApp {
         let screen = pb.update(now);
         if pb.is_done() {
             self.last_refresh = None;
-            self.redraw.idle();
         } else {
             if let Some(prev) = self.last_refresh {
                 self.refresh_intervals_ms.push((now - prev) * 1000.0);
             }
             self.last_refresh = Some(now);
-            repaint_at(ui.ctx(), &mut self.redraw, pb, now);
+            repaint_at(ui.ctx(), pb, now, 1.0 / refresh);
         }
         if trial.practice {
             ui.label(RichText::new("Practice trial (not counted)").italics());
@@ -903,15 +899,15 @@ impl RunnerApp {
 }
 
 /// Asks for the next redraw in time for the screen's next change (the next frame or the end
-/// of a gap) instead of redrawing continuously in between, when a redraw would show the same
-/// image; [`RedrawTimer`] makes that frame start just after the change is due.
-fn repaint_at(ctx: &egui::Context, timer: &mut RedrawTimer, playback: &Playback, now: f64) {
-    match playback.next_change() {
-        Some(due) => ctx.request_repaint_after(std::time::Duration::from_secs_f64(timer.delay(now, due))),
-        None => {
-            timer.idle();
-            ctx.request_repaint();
-        }
+/// of a gap) instead of redrawing continuously in between, when a redraw would show the
+/// same image. eframe counts a requested delay from the end of the current frame, after it
+/// was drawn and presented, so the redraw is asked for one refresh interval before the change
+/// is due; from there frames follow back to back (locked to the display's refresh where
+/// presentation waits for it) until the change is on screen.
+fn repaint_at(ctx: &egui::Context, playback: &Playback, now: f64, refresh_s: f64) {
+    match playback.next_change().map(|t| t - now - refresh_s) {
+        Some(wait) if wait > 0.0 => ctx.request_repaint_after(std::time::Duration::from_secs_f64(wait)),
+        _ => ctx.request_repaint(),
     }
 }
 

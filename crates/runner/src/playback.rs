@@ -188,61 +188,6 @@ impl Playback {
     }
 }
 
-/// Schedules redraws so that a frame starts just after the screen's next change is due.
-///
-/// eframe counts a requested delay from the end of the current frame (after it was drawn and
-/// presented), so a redraw asked for at `due - now` starts one frame's cost late. The timer
-/// learns that cost from the frames themselves: a frame that started at `t0` and asked for a
-/// delay `d` was followed by one at `t1`, so it cost `t1 - t0 - d`. The cost is the median of
-/// the last [`RedrawTimer::WINDOW`] frames, and the next redraw is asked for
-/// `due + margin - now - cost`, the margin absorbing the cost's jitter (too early shows the
-/// old image and costs a whole extra frame).
-#[derive(Clone, Debug, Default)]
-pub struct RedrawTimer {
-    costs: std::collections::VecDeque<f64>,
-    last: Option<(f64, f64)>,
-}
-
-impl RedrawTimer {
-    /// Frames whose cost the estimate uses.
-    pub const WINDOW: usize = 15;
-    /// Aim this long (seconds) after the change is due.
-    pub const MARGIN_S: f64 = 0.002;
-
-    /// The estimated cost of a frame (seconds); 0 before any was measured.
-    pub fn cost(&self) -> f64 {
-        let mut c: Vec<f64> = self.costs.iter().copied().collect();
-        if c.is_empty() { 0.0 } else { median(&mut c) }
-    }
-
-    /// Notes that a frame started at `now` (seconds); call once per frame before [`RedrawTimer::delay`].
-    pub fn frame_started(&mut self, now: f64) {
-        if let Some((t0, d)) = self.last.take() {
-            let cost = now - t0 - d;
-            // A gap of a second or more is an idle window (no redraw was pending), not a cost.
-            if (0.0..1.0).contains(&cost) {
-                if self.costs.len() == Self::WINDOW {
-                    self.costs.pop_front();
-                }
-                self.costs.push_back(cost);
-            }
-        }
-    }
-
-    /// The delay (seconds, 0 for at once) to ask for at `now` so that the next frame starts
-    /// just after `due`; remembered to measure this frame's cost when the next one starts.
-    pub fn delay(&mut self, now: f64, due: f64) -> f64 {
-        let d = (due + Self::MARGIN_S - now - self.cost()).max(0.0);
-        self.last = Some((now, d));
-        d
-    }
-
-    /// Forgets the pending request (the window stops redrawing on its own, e.g. after playback).
-    pub fn idle(&mut self) {
-        self.last = None;
-    }
-}
-
 /// The display's refresh interval estimated from the times of successive presents.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct RefreshEstimate {
@@ -412,38 +357,5 @@ mod tests {
         assert!(!e.is_display_refresh(), "{e:?}");
         let regular_slow: Vec<f64> = (0..40).map(|i| f64::from(i) * 0.125).collect();
         assert!(!estimate_refresh(&regular_slow).unwrap().is_display_refresh());
-    }
-
-    #[test]
-    fn redraw_timer_learns_the_frame_cost_and_starts_frames_just_after_they_are_due() {
-        // A window whose frames cost 20 ms (+-1 ms) after the requested delay, showing 30 fps.
-        let mut timer = RedrawTimer::default();
-        let mut now = 0.0;
-        let mut lateness = Vec::new();
-        for k in 1..=60 {
-            let due = f64::from(k) / 30.0;
-            timer.frame_started(now);
-            let d = timer.delay(now, due);
-            let cost = 0.020 + 0.001 * f64::from(k % 3) - 0.001;
-            now += d + cost;
-            if now < due {
-                // Too early: the old image again, and one more frame at once.
-                timer.frame_started(now);
-                let d = timer.delay(now, due);
-                now += d + cost;
-            }
-            lateness.push(now - due);
-        }
-        assert!((timer.cost() - 0.020).abs() < 0.0011, "{}", timer.cost());
-        // Once learnt (after the first frames), every frame starts 0-4 ms after it is due.
-        assert!(lateness[5..].iter().all(|l| (0.0..0.004).contains(l)), "{lateness:?}");
-        // An idle second between frames is not a cost.
-        timer.frame_started(now + 5.0);
-        assert!((timer.cost() - 0.020).abs() < 0.0011);
-        timer.idle();
-        timer.frame_started(now + 6.0);
-        assert!((timer.cost() - 0.020).abs() < 0.0011);
-        // A due time already past asks for a redraw at once.
-        assert_eq!(timer.delay(10.0, 9.0), 0.0);
     }
 }
