@@ -146,6 +146,8 @@ fn scripted_participant_2afc_practice_replay_quit_and_resume() {
     let cfg = config(dir.path(), "2afc");
     let mut h = harness(cfg.clone());
     assert_eq!(h.state().screen(), "start");
+    // The display check shows the refresh rate measured on the start screen.
+    assert!(h.query_by_label_contains("Display refresh: 60.00 Hz measured (median of 60 frame intervals").is_some());
     // A name is refused.
     h.get_by_role(Role::TextInput).focus();
     h.step();
@@ -364,4 +366,29 @@ fn matching_fits_a_1280x720_window_with_a_warning() {
     let (warned, bottom) = matching_trial_in([1400.0, 1000.0]);
     assert!(!warned);
     assert!(bottom > 720.0 && bottom <= 1000.0, "{bottom}");
+}
+
+#[test]
+fn a_given_refresh_rate_overrides_the_measurement_and_both_are_logged() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = config(dir.path(), "2afc");
+    cfg.refresh_hz = Some(75.0);
+    let mut h = Harness::builder()
+        .with_size([1400.0, 1100.0])
+        .with_step_dt(1.0 / 60.0)
+        .build_eframe(move |_cc| RunnerApp::new(cfg));
+    // No need to wait for the measurement, but it still runs.
+    assert!(h.state().ready_to_start());
+    h.run_steps(runner::app::REFRESH_CALIBRATION_FRAMES);
+    assert!(h.query_by_label_contains("Pacing uses 75.00 Hz from --refresh-hz.").is_some());
+    start(&mut h, "R01");
+    let path = h.state().session().unwrap().path().to_owned();
+    drop(h);
+    let log = SessionLog::read(&path).unwrap();
+    let display: serde_json::Value = serde_json::from_str(log.header.get("display").unwrap()).unwrap();
+    assert_eq!(
+        (display["refresh_hz"].as_f64(), display["refresh_source"].as_str()),
+        (Some(75.0), Some("--refresh-hz"))
+    );
+    assert!((display["refresh_measured_hz"].as_f64().unwrap() - 60.0).abs() < 1e-4, "{display}");
 }
