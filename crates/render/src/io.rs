@@ -46,6 +46,19 @@ impl LinearImage {
         LinearImage { width, height, pixels: vec![[0.0; 3]; width as usize * height as usize] }
     }
 
+    /// Root mean square of the difference to `other` over pixels and RGB channels (the
+    /// images must have the same size).
+    pub fn rms_difference(&self, other: &LinearImage) -> f64 {
+        assert_eq!((self.width, self.height), (other.width, other.height), "images of different sizes");
+        let sum: f64 = self
+            .pixels
+            .iter()
+            .zip(&other.pixels)
+            .map(|(p, q)| (0..3).map(|c| (f64::from(p[c]) - f64::from(q[c])).powi(2)).sum::<f64>())
+            .sum();
+        (sum / (3 * self.pixels.len().max(1)) as f64).sqrt()
+    }
+
     /// The pixel at column `x`, row `y`.
     pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
         self.pixels[y as usize * self.width as usize + x as usize]

@@ -455,25 +455,27 @@ fn correlation(a: &[f64], b: &[f64]) -> f64 {
     cov / (va * vb).sqrt()
 }
 
+/// The noise-textured sphere seen from 1.2 m under a small default map: a textured,
+/// softly lit close-up for the noise statistics.
+fn noise_close_up(width: u32, height: u32, spp: u32) -> FrameScene {
+    let material = Material::Noise {
+        albedo_a: [0.8, 0.7, 0.6],
+        albedo_b: [0.1, 0.1, 0.4],
+        base_frequency: 4.0,
+        octaves: 4,
+        seed: 7,
+    };
+    let camera = Camera::look_at(DVec3::new(0.0, 0.3, 1.2), DVec3::new(0.0, 0.1, 0.0), 0.05, 0.036, width, height);
+    scene(camera, material, Environment::Default { width: 128 }, spp)
+}
+
 #[test]
 fn the_two_eyes_have_independent_noise() {
     // Both eyes look through the same camera (so they see the same expected image) with
     // the seeds a stereo frame gives them; their residuals against a high-sample
     // reference must be uncorrelated.
     let id = StimulusId { material: 3, speed: 2, shutter: 3, samples: 1, view: View::Stereo };
-    let mut s = scene(
-        study_camera(64, 36),
-        Material::Noise {
-            albedo_a: [0.8, 0.7, 0.6],
-            albedo_b: [0.1, 0.1, 0.4],
-            base_frequency: 4.0,
-            octaves: 4,
-            seed: 7,
-        },
-        Environment::Default { width: 128 },
-        4,
-    );
-    s.views[0].camera = Camera::look_at(DVec3::new(0.0, 0.3, 1.2), DVec3::new(0.0, 0.1, 0.0), 0.05, 0.036, 64, 36);
+    let mut s = noise_close_up(64, 36, 4);
     let cam = s.views[0].camera.clone();
     let seed = |eye| study::seed::frame_seed(2011, &id, eye, 3);
     s.views = vec![
@@ -501,31 +503,9 @@ fn the_two_eyes_have_independent_noise() {
     assert!(correlation(&residual(&twins[0]), &residual(&twins[1])) > 0.999);
 }
 
-fn rms(a: &LinearImage, b: &LinearImage) -> f64 {
-    let sum: f64 = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .map(|(p, q)| (0..3).map(|c| (f64::from(p[c]) - f64::from(q[c])).powi(2)).sum::<f64>())
-        .sum();
-    (sum / (3 * a.pixels.len()) as f64).sqrt()
-}
-
 #[test]
 fn rms_error_falls_as_one_over_sqrt_spp() {
-    let mut s = scene(
-        study_camera(48, 27),
-        Material::Noise {
-            albedo_a: [0.8, 0.7, 0.6],
-            albedo_b: [0.1, 0.1, 0.4],
-            base_frequency: 4.0,
-            octaves: 4,
-            seed: 7,
-        },
-        Environment::Default { width: 128 },
-        1,
-    );
-    s.views[0].camera = Camera::look_at(DVec3::new(0.0, 0.3, 1.2), DVec3::new(0.0, 0.1, 0.0), 0.05, 0.036, 48, 27);
+    let mut s = noise_close_up(48, 27, 1);
     s.sphere.velocity = DVec3::new(1.5, 0.0, 0.0);
     s.shutter = Shutter { open: 0.0, close: 1.0 / 30.0 };
     let mut reference = s.clone();
@@ -538,7 +518,7 @@ fn rms_error_falls_as_one_over_sqrt_spp() {
         .map(|&spp| {
             let mut f = s.clone();
             f.samples_per_pixel = spp;
-            rms(&render(&f)[0], &r)
+            render(&f)[0].rms_difference(&r)
         })
         .collect();
     // Least-squares slope of log(rms) against log(spp): -1/2 for independent Monte Carlo

@@ -144,14 +144,10 @@ fn write(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
     std::fs::write(path, bytes).map_err(|e| BenchError::File(path.to_path_buf(), e))
 }
 
+/// Per-pixel noise from two independently seeded renders: their RMS difference over
+/// sqrt(2).
 fn rms_noise(a: &LinearImage, b: &LinearImage) -> f64 {
-    let sum: f64 = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .map(|(p, q)| (0..3).map(|c| (f64::from(p[c]) - f64::from(q[c])).powi(2)).sum::<f64>())
-        .sum();
-    (sum / (3 * a.pixels.len()) as f64).sqrt() / std::f64::consts::SQRT_2
+    a.rms_difference(b) / std::f64::consts::SQRT_2
 }
 
 fn mean_rgb(images: &[&LinearImage]) -> [f64; 3] {
@@ -317,7 +313,7 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
         let ours_avg = average(&static_a.image, &static_b.image);
         let theirs_avg = average(&ma, &mb);
         // Agreement of the two renderers' images (includes both noises).
-        let image_rms_difference = rms_noise(&ours_avg, &theirs_avg) * std::f64::consts::SQRT_2;
+        let image_rms_difference = ours_avg.rms_difference(&theirs_avg);
         result["mitsuba"] = json!({
             "driver": peer,
             "camera_samples_per_second": their_sps,
