@@ -3,27 +3,16 @@
 
 use std::path::PathBuf;
 
+use super::BadInput;
+use super::stimuli::{Frame, FrameArgs};
 use anyhow::Context as _;
 use clap::ValueEnum;
-use study::ids::StimulusId;
-
-use super::BadInput;
-use super::stimuli::{design_error, load_design};
 
 /// Arguments.
 #[derive(clap::Args)]
 pub struct Args {
-    /// The design file.
-    #[arg(long, default_value = "stimuli/navarro2011.toml")]
-    design: PathBuf,
-    /// Preset: `full` or one the design defines.
-    #[arg(long, default_value = "full")]
-    preset: String,
-    /// Stimulus id, e.g. `M2-S2-T3-A5` or `M2-S2-T3-A5-stereo`.
-    id: String,
-    /// Frame index (0-based within the preset).
-    #[arg(long, default_value_t = 0)]
-    frame: u32,
+    #[command(flatten)]
+    frame: FrameArgs,
     /// Rendering method.
     #[arg(long, value_enum, default_value_t = Method::Tracer)]
     method: Method,
@@ -60,10 +49,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some("png") => false,
         _ => return Err(BadInput(format!("--out {}: the file must end in .exr or .png", args.out.display())).into()),
     };
-    let design = load_design(&args.design)?;
-    let id: StimulusId = args.id.parse().map_err(|e: study::ids::IdError| BadInput(e.to_string()))?;
-    let preset = design.preset(&args.preset).map_err(design_error)?;
-    let scene = design.frame_scene_with(&preset, &id, args.frame).map_err(design_error)?;
+    let Frame { id, scene, .. } = args.frame.resolve()?;
     let env = render::env::EnvironmentMap::from_lighting(&scene.lighting).map_err(|e| BadInput(e.to_string()))?;
     let started = std::time::Instant::now();
     let (image, nonfinite) = render::set::render_composed(&scene, &env);
@@ -77,7 +63,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     eprintln!(
         "{}: {id} frame {} ({}x{}, {} spp) in {seconds:.2} s, {nonfinite} non-finite samples discarded",
         args.out.display(),
-        args.frame,
+        args.frame.frame,
         image.width,
         image.height,
         scene.samples_per_pixel

@@ -6,8 +6,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use clap::{Subcommand, ValueEnum};
 use render::set::{ProgressMode, SetError, SetRequest, render_set};
-use study::design::{Design, DesignError, Views};
+use study::design::{Design, DesignError, Preset, Views};
 use study::ids::{Factor, StimulusId};
+use study::scene::FrameScene;
 use study::select::Selection;
 
 use super::BadInput;
@@ -117,19 +118,50 @@ struct ListArgs {
     select: Selecting,
 }
 
+/// One frame of one stimulus of a design: the arguments `stimuli describe` and
+/// `render-frame` share.
 #[derive(clap::Args)]
-struct DescribeArgs {
+pub struct FrameArgs {
     /// The design file.
     #[arg(long, default_value = "stimuli/navarro2011.toml")]
     design: PathBuf,
-    /// Preset.
+    /// Preset: `full` or one the design defines.
     #[arg(long, default_value = "full")]
     preset: String,
     /// Stimulus id, e.g. `M2-S2-T3-A5` or `M2-S2-T3-A5-stereo`.
     id: String,
     /// Frame index (0-based within the preset).
     #[arg(long, default_value_t = 0)]
-    frame: u32,
+    pub frame: u32,
+}
+
+/// A frame resolved against its design.
+pub struct Frame {
+    /// The loaded design.
+    pub design: Design,
+    /// The preset.
+    pub preset: Preset,
+    /// The stimulus.
+    pub id: StimulusId,
+    /// The exact scene of the frame.
+    pub scene: FrameScene,
+}
+
+impl FrameArgs {
+    /// Loads the design and builds the frame's scene; bad input names what is wrong.
+    pub fn resolve(&self) -> anyhow::Result<Frame> {
+        let design = load_design(&self.design)?;
+        let id: StimulusId = self.id.parse().map_err(|e: study::ids::IdError| BadInput(e.to_string()))?;
+        let preset = design.preset(&self.preset).map_err(design_error)?;
+        let scene = design.frame_scene_with(&preset, &id, self.frame).map_err(design_error)?;
+        Ok(Frame { design, preset, id, scene })
+    }
+}
+
+#[derive(clap::Args)]
+struct DescribeArgs {
+    #[command(flatten)]
+    frame: FrameArgs,
     /// Print the exact scene as JSON.
     #[arg(long)]
     json: bool,
@@ -254,16 +286,13 @@ fn list(a: ListArgs) -> anyhow::Result<()> {
 }
 
 fn describe(a: DescribeArgs) -> anyhow::Result<()> {
-    let design = load_design(&a.design)?;
-    let id: StimulusId = a.id.parse().map_err(|e: study::ids::IdError| BadInput(e.to_string()))?;
-    let preset = design.preset(&a.preset).map_err(design_error)?;
-    let scene = design.frame_scene_with(&preset, &id, a.frame).map_err(design_error)?;
+    let Frame { design, preset, id, scene } = a.frame.resolve()?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&scene)?);
         return Ok(());
     }
     let f = design.factors(&id, &preset).map_err(design_error)?;
-    println!("{id}, frame {} of preset `{}` ({})", a.frame, preset.name, design.path.display());
+    println!("{id}, frame {} of preset `{}` ({})", a.frame.frame, preset.name, design.path.display());
     println!(
         "  factors: {} {}, {} {} ({} deg/s), {} {} ({} of the frame), {} {} ({} spp)",
         f.material.label,
