@@ -3,7 +3,9 @@
 //!
 //! Screens: start (participant code, attributes, display check) -> briefing (text and
 //! labelled example sequences) -> for each trial: loading (frames decoded on worker threads
-//! with a progress bar, then uploaded as textures), presentation (sequences one after the
+//! with a progress bar, then uploaded as textures: on eframe's wgpu device by the loader
+//! thread and drawn by [`crate::gpu`]'s pipelines, which compose the anaglyph; without one,
+//! by egui), presentation (sequences one after the
 //! other at their frame rate, paced by [`Playback`]), answer (keys or buttons, replay when
 //! allowed) -> breaks -> done. Escape asks before quitting; every answered trial is already
 //! synced to disk, so quitting loses only the trial on screen, which is shown again when the
@@ -22,10 +24,11 @@ use study::response::Task;
 
 use crate::RunnerError;
 use crate::calibration::{Calibration, Layout, Viewing, calibrate, fit_scale, visual_angle_deg};
+use crate::gpu::{Draw, FrameUploader, StimulusCallback, StimulusPipelines};
 use crate::playback::{Playback, RefreshEstimate, Screen, estimate_refresh};
 use crate::schedule::Trial;
 use crate::session::{Answer, Session, SessionOptions, check_participant};
-use crate::stimuli::{Decoded, StimulusSet, decode_sequence};
+use crate::stimuli::{StimulusSet, decode_sequence_for};
 
 /// What the window needs to run a session.
 #[derive(Clone, Debug)]
@@ -217,15 +220,78 @@ fn fitted_scale(
 
 /// Stimuli decoded and uploaded for one trial or example.
 struct Loaded {
-    textures: HashMap<StimulusId, Vec<TextureHandle>>,
+    textures: HashMap<StimulusId, Frames>,
     fps: HashMap<StimulusId, f64>,
     size: HashMap<StimulusId, [usize; 2]>,
+}
+
+/// The textures of one sequence's frames.
+enum Frames {
+    /// Managed by egui (uploaded by egui at the next paint; without a wgpu device).
+    Egui(Vec<TextureHandle>),
+    /// Uploaded by the loader thread ([`FrameUploader`]) and drawn by a paint callback with
+    /// the [`StimulusPipelines`] (one bind group per frame; the textures live as long as
+    /// their bind groups).
+    Native {
+        /// Per frame.
+        binds: Vec<eframe::wgpu::BindGroup>,
+        /// A copy of the display image, or the anaglyph of a stereo frame.
+        draw: Draw,
+    },
+}
+
+impl Frames {
+    fn len(&self) -> usize {
+        match self {
+            Frames::Egui(h) => h.len(),
+            Frames::Native { binds, .. } => binds.len(),
+        }
+    }
+
+    /// Draws frame `frame` at `size` points.
+    fn show(&self, ui: &mut egui::Ui, frame: usize, size: Vec2) {
+        match self {
+            Frames::Egui(h) => {
+                ui.image(egui::load::SizedTexture::new(h[frame].id(), size));
+            }
+            Frames::Native { binds, draw } => {
+                let (rect, _) = ui.allocate_exact_size(size, egui::Sense::hover());
+                let callback = StimulusCallback { bind: binds[frame].clone(), draw: *draw };
+                ui.painter().add(eframe::egui_wgpu::Callback::new_paint_callback(rect, callback));
+            }
+        }
+    }
+}
+
+/// A sequence made ready by the loader thread.
+struct Prepared {
+    id: StimulusId,
+    fps: f64,
+    eye_width: u32,
+    /// Display image size.
+    size: [usize; 2],
+    content: Content,
+}
+
+enum Content {
+    /// Decoded display images, for egui to upload.
+    Images(Vec<egui::ColorImage>),
+    /// Textures already on the GPU, drawn as `Draw` says.
+    Textures(Vec<eframe::wgpu::Texture>, Draw, GpuTarget),
+}
+
+/// The device the loader thread uploads with and the pipelines that draw the frames (also in
+/// egui-wgpu's callback resources), when eframe runs on wgpu.
+#[derive(Clone)]
+struct GpuTarget {
+    uploader: Arc<FrameUploader>,
+    pipelines: Arc<StimulusPipelines>,
 }
 
 struct LoadJob {
     total: usize,
     progress: Arc<AtomicUsize>,
-    handle: Option<JoinHandle<Result<Vec<Decoded>, RunnerError>>>,
+    handle: Option<JoinHandle<Result<Vec<Prepared>, RunnerError>>>,
 }
 
 // One phase exists at a time; boxing the example's state would only add indirection.
@@ -268,6 +334,9 @@ pub struct RunnerApp {
     present_times: Vec<f64>,
     measured: Option<RefreshEstimate>,
     measuring_done: bool,
+    /// eframe's wgpu device and renderer, once the first frame has shown them (`None` in
+    /// headless tests and with the glow renderer: egui uploads the frames then).
+    gpu: Option<GpuTarget>,
 }
 
 impl RunnerApp {
@@ -291,6 +360,21 @@ impl RunnerApp {
             present_times: Vec::new(),
             measured: None,
             measuring_done: false,
+            gpu: None,
+        }
+    }
+
+    /// Takes eframe's wgpu device (once) for uploading frames off the window's thread.
+    fn attach_gpu(&mut self, frame: &eframe::Frame) {
+        if self.gpu.is_none()
+            && let Some(rs) = frame.wgpu_render_state()
+        {
+            let pipelines = Arc::new(StimulusPipelines::new(&rs.device, rs.target_format));
+            rs.renderer.write().callback_resources.insert(pipelines.clone());
+            self.gpu = Some(GpuTarget {
+                uploader: Arc::new(FrameUploader::new(rs.device.clone(), rs.queue.clone())),
+                pipelines,
+            });
         }
     }
 
@@ -412,8 +496,18 @@ impl RunnerApp {
         let total = sequences.iter().map(|s| s.manifest.frames.len()).sum();
         let progress = Arc::new(AtomicUsize::new(0));
         let (mode, threads, counter) = (self.config.display, self.config.decode_threads, progress.clone());
+        let gpu = self.gpu.clone();
         let handle = std::thread::spawn(move || {
-            sequences.iter().map(|s| decode_sequence(s, mode, &counter, threads)).collect::<Result<Vec<_>, _>>()
+            let prepare = |s: &crate::stimuli::Sequence| -> Result<Prepared, RunnerError> {
+                let d = decode_sequence_for(s, mode, gpu.is_some(), &counter, threads)?;
+                let size = d.display_size();
+                let content = match &gpu {
+                    Some(g) => Content::Textures(g.uploader.upload(&d)?, Draw::of(&d)?, g.clone()),
+                    None => Content::Images(d.frames),
+                };
+                Ok(Prepared { id: d.id, fps: d.fps, eye_width: d.eye_width, size, content })
+            };
+            sequences.iter().map(prepare).collect::<Result<Vec<_>, _>>()
         });
         LoadJob { total, progress, handle: Some(handle) }
     }
@@ -429,18 +523,31 @@ impl RunnerApp {
         }
     }
 
-    fn upload(ctx: &egui::Context, decoded: Vec<Decoded>, filter: TextureOptions) -> Loaded {
+    /// Hands prepared sequences to egui: images to upload, or textures to register.
+    fn upload(ctx: &egui::Context, prepared: Vec<Prepared>, filter: TextureOptions) -> Loaded {
         let mut loaded = Loaded { textures: HashMap::new(), fps: HashMap::new(), size: HashMap::new() };
-        for d in decoded {
-            loaded.size.insert(d.id, d.frames.first().map_or([1, 1], |f| f.size));
-            let handles = d
-                .frames
-                .into_iter()
-                .enumerate()
-                .map(|(i, image)| ctx.load_texture(format!("{}#{i}", d.id), image, filter))
-                .collect();
+        for d in prepared {
+            loaded.size.insert(d.id, d.size);
+            let frames = match d.content {
+                Content::Images(images) => Frames::Egui(
+                    images
+                        .into_iter()
+                        .enumerate()
+                        .map(|(i, image)| ctx.load_texture(format!("{}#{i}", d.id), image, filter))
+                        .collect(),
+                ),
+                Content::Textures(textures, draw, gpu) => {
+                    let filter_mode = match filter.magnification {
+                        egui::TextureFilter::Nearest => eframe::wgpu::FilterMode::Nearest,
+                        egui::TextureFilter::Linear => eframe::wgpu::FilterMode::Linear,
+                    };
+                    let device = gpu.uploader.device();
+                    let binds = textures.iter().map(|t| gpu.pipelines.bind(device, t, draw, filter_mode)).collect();
+                    Frames::Native { binds, draw }
+                }
+            };
             loaded.fps.insert(d.id, d.fps);
-            loaded.textures.insert(d.id, handles);
+            loaded.textures.insert(d.id, frames);
         }
         loaded
     }
@@ -579,11 +686,10 @@ impl RunnerApp {
     }
 
     /// Sharp texels at an integer calibration that fits the window; smoothing otherwise.
-    fn filter(&self, ctx: &egui::Context, task: Task, decoded: &[Decoded]) -> TextureOptions {
-        let reduced =
-            decoded.first().and_then(|d| d.frames.first().map(|f| (d.eye_width, f.size))).is_some_and(|(eye, size)| {
-                fitted_scale(ctx, self.calibration.as_ref(), &self.config.viewing, eye, task, size).1.is_some()
-            });
+    fn filter(&self, ctx: &egui::Context, task: Task, prepared: &[Prepared]) -> TextureOptions {
+        let reduced = prepared.first().is_some_and(|d| {
+            fitted_scale(ctx, self.calibration.as_ref(), &self.config.viewing, d.eye_width, task, d.size).1.is_some()
+        });
         if !reduced && self.calibration.as_ref().is_none_or(|c| c.integer) {
             TextureOptions::NEAREST
         } else {
@@ -605,7 +711,7 @@ impl RunnerApp {
         (Vec2::new(size[0] as f32, size[1] as f32) * points, warning)
     }
 
-    fn poll(ui: &mut egui::Ui, job: &mut LoadJob, message: &mut Option<String>) -> Option<Vec<Decoded>> {
+    fn poll(ui: &mut egui::Ui, job: &mut LoadJob, message: &mut Option<String>) -> Option<Vec<Prepared>> {
         let done = job.progress.load(Ordering::Relaxed);
         ui.add(
             egui::ProgressBar::new(done as f32 / job.total.max(1) as f32)
@@ -755,7 +861,7 @@ impl RunnerApp {
         }
         match pb.update(now) {
             Screen::Frame { frame, .. } => {
-                ui.image(egui::load::SizedTexture::new(loaded.textures[&id][frame].id(), size));
+                loaded.textures[&id].show(ui, frame, size);
                 repaint_at(ui.ctx(), pb, now, 1.0 / refresh_hz);
             }
             _ => {
@@ -829,7 +935,7 @@ impl RunnerApp {
                 ui.label(labels[slot]);
                 match screen {
                     Screen::Frame { slot: s, frame } if s == slot => {
-                        ui.image(egui::load::SizedTexture::new(loaded.textures[id][frame].id(), size_of(id)));
+                        loaded.textures[id].show(ui, frame, size_of(id));
                     }
                     _ => blank(ui, size_of(id), ""),
                 }
@@ -920,7 +1026,8 @@ fn blank(ui: &mut egui::Ui, size: Vec2, text: &str) {
 }
 
 impl eframe::App for RunnerApp {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
+        self.attach_gpu(frame);
         if ui.input(|i| i.viewport().close_requested()) && self.close_needs_confirmation() {
             ui.ctx().send_viewport_cmd(egui::ViewportCommand::CancelClose);
             self.confirm_quit = true;

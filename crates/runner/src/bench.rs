@@ -12,12 +12,13 @@ use serde::Serialize;
 use study::experiment::DisplayMode;
 
 use crate::RunnerError;
-use crate::stimuli::{Decoded, Sequence, decode_sequence};
+use crate::gpu::FrameUploader;
+use crate::stimuli::{Decoded, Sequence, decode_sequence_for};
 
-/// A headless wgpu device for upload measurements.
+/// A headless wgpu device for upload measurements, uploading as the window does
+/// ([`FrameUploader`]).
 pub struct Gpu {
-    device: wgpu::Device,
-    queue: wgpu::Queue,
+    uploader: FrameUploader,
     /// Adapter name and backend.
     pub adapter: String,
 }
@@ -25,54 +26,26 @@ pub struct Gpu {
 impl Gpu {
     /// The default adapter (on machines without a GPU, Mesa's lavapipe when installed).
     pub fn new() -> Result<Gpu, String> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
-            .map_err(|e| format!("no wgpu adapter: {e}"))?;
-        let info = adapter.get_info();
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
-            .map_err(|e| format!("no wgpu device: {e}"))?;
-        Ok(Gpu { device, queue, adapter: format!("{} ({:?})", info.name, info.backend) })
+        let (device, queue, adapter) = crate::gpu::headless_device()?;
+        Ok(Gpu { uploader: FrameUploader::new(device, queue), adapter })
     }
 
-    /// Uploads every frame as its own sRGB texture and waits for the queue; returns the textures.
-    pub fn upload(&self, decoded: &Decoded) -> Vec<wgpu::Texture> {
-        let textures = decoded
-            .frames
-            .iter()
-            .map(|f| {
-                let (width, height) = (f.size[0] as u32, f.size[1] as u32);
-                let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
-                let texture = self.device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some("frame"),
-                    size,
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: wgpu::TextureFormat::Rgba8UnormSrgb,
-                    usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                    view_formats: &[],
-                });
-                self.queue.write_texture(
-                    wgpu::TexelCopyTextureInfo {
-                        texture: &texture,
-                        mip_level: 0,
-                        origin: wgpu::Origin3d::ZERO,
-                        aspect: wgpu::TextureAspect::All,
-                    },
-                    f.as_raw(),
-                    wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(4 * width),
-                        rows_per_image: Some(height),
-                    },
-                    size,
-                );
-                texture
-            })
-            .collect();
-        self.queue.submit([]);
-        let _ = self.device.poll(wgpu::PollType::Wait { submission_index: None, timeout: None });
-        textures
+    /// Uploads (and, where the GPU composes the display mode, composes) every frame as its own
+    /// texture and waits for the queue; returns the textures.
+    pub fn upload(&self, decoded: &Decoded) -> Result<Vec<wgpu::Texture>, RunnerError> {
+        self.uploader.upload(decoded)
+    }
+
+    /// Decodes a sequence as the window does with this device (display modes the GPU composes
+    /// are left to it).
+    pub fn decode(
+        sequence: &Sequence,
+        mode: DisplayMode,
+        progress: &AtomicUsize,
+        threads: usize,
+        gpu: Option<&Gpu>,
+    ) -> Result<Decoded, RunnerError> {
+        decode_sequence_for(sequence, mode, gpu.is_some(), progress, threads)
     }
 }
 
@@ -83,15 +56,15 @@ pub struct DecodeUpload {
     pub id: String,
     /// Frames.
     pub frames: usize,
-    /// Decoded frame size (after the display transform).
+    /// Display image size (after the display transform, on the CPU or the GPU).
     pub width: u32,
     /// Height.
     pub height: u32,
     /// Decoder threads.
     pub threads: usize,
-    /// Milliseconds to decode and transform all frames.
+    /// Milliseconds to decode all frames and apply the display transforms done on the CPU.
     pub decode_ms: f64,
-    /// Milliseconds to upload all frames (None without an adapter).
+    /// Milliseconds to upload all frames, with the transforms done on the GPU (None without an adapter).
     pub upload_ms: Option<f64>,
     /// Bytes of decoded pixels.
     pub bytes: usize,
@@ -114,24 +87,27 @@ pub fn decode_upload(
 ) -> Result<DecodeUpload, RunnerError> {
     let progress = AtomicUsize::new(0);
     let t = Instant::now();
-    let decoded = decode_sequence(sequence, mode, &progress, threads)?;
+    let decoded = Gpu::decode(sequence, mode, &progress, threads, gpu)?;
     let decode_ms = t.elapsed().as_secs_f64() * 1e3;
-    let upload_ms = gpu.map(|g| {
-        let t = Instant::now();
-        let textures = g.upload(&decoded);
-        let ms = t.elapsed().as_secs_f64() * 1e3;
-        drop(textures);
-        ms
-    });
-    let first = &decoded.frames[0];
+    let upload_ms = match gpu {
+        Some(g) => {
+            let t = Instant::now();
+            let textures = g.upload(&decoded)?;
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            drop(textures);
+            Some(ms)
+        }
+        None => None,
+    };
+    let [width, height] = decoded.display_size();
     let ready_ms = decode_ms + upload_ms.unwrap_or(0.0);
     Ok(DecodeUpload {
         ready_ms,
         target_met: ready_ms < READY_TARGET_MS,
         id: decoded.id.to_string(),
         frames: decoded.frames.len(),
-        width: first.size[0] as u32,
-        height: first.size[1] as u32,
+        width: width as u32,
+        height: height as u32,
         threads,
         decode_ms,
         upload_ms,
@@ -155,7 +131,7 @@ pub struct TrialLoad {
     pub mode: String,
     /// The two stimuli.
     pub ids: [String; 2],
-    /// Milliseconds to decode and transform both sequences.
+    /// Milliseconds to decode both sequences and apply the display transforms done on the CPU.
     pub decode_ms: f64,
     /// Milliseconds to upload both (None without an adapter).
     pub upload_ms: Option<f64>,
@@ -186,12 +162,17 @@ pub fn trial_load(
     let before = memory_kib().map_or(0, |m| m.0);
     let progress = AtomicUsize::new(0);
     let t = Instant::now();
-    let da = decode_sequence(a, mode, &progress, threads)?;
-    let db = decode_sequence(b, mode, &progress, threads)?;
+    let da = Gpu::decode(a, mode, &progress, threads, gpu)?;
+    let db = Gpu::decode(b, mode, &progress, threads, gpu)?;
     let decode_ms = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
-    let textures: Vec<_> = gpu.map(|g| [g.upload(&da), g.upload(&db)]).into_iter().collect();
+    let mut textures = Vec::new();
+    if let Some(g) = gpu {
+        textures.push(g.upload(&da)?);
+        textures.push(g.upload(&db)?);
+    }
     let upload_ms = gpu.map(|_| t.elapsed().as_secs_f64() * 1e3);
+    let texture_bytes: usize = textures.iter().flatten().map(|t| 4 * t.width() as usize * t.height() as usize).sum();
     let ready_ms = decode_ms + upload_ms.unwrap_or(0.0);
     let loaded = memory_kib().map_or(0, |m| m.0);
     let ids = [da.id.to_string(), db.id.to_string()];
@@ -207,7 +188,7 @@ pub fn trial_load(
         ready_ms,
         target_met: ready_ms < READY_TARGET_MS,
         decoded_bytes,
-        texture_bytes: if gpu.is_some() { decoded_bytes } else { 0 },
+        texture_bytes,
         rss_before_kib: before,
         rss_loaded_kib: loaded,
         rss_textures_only_kib: textures_only,

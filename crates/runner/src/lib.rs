@@ -12,6 +12,7 @@
 //! - [`session`]: opening, resuming and appending to a participant's session log.
 //! - [`playback`]: the steps of a trial and frame pacing locked to the display refresh.
 //! - [`display`]: stereo display-mode pixel transforms (anaglyph, row interleave, ...).
+//! - [`gpu`]: frames onto the GPU as textures; the anaglyph composed there by a kernel.
 //! - [`calibration`]: scaling a stimulus to the visual angle the definition asks for.
 //! - [`simulate`]: simulated observers running whole sessions headlessly.
 //! - [`app`]: the participant's window.
@@ -21,6 +22,7 @@ pub mod app;
 pub mod bench;
 pub mod calibration;
 pub mod display;
+pub mod gpu;
 pub mod playback;
 pub mod schedule;
 pub mod session;

@@ -108,14 +108,29 @@ pub struct Decoded {
     pub fps: f64,
     /// Width of one eye's image in source pixels (what calibration scales).
     pub eye_width: u32,
-    /// Display frames in order.
+    /// Display frames in order; with [`Decoded::gpu_transform`], the stereo frames as stored.
     pub frames: Vec<egui::ColorImage>,
+    /// The display mode still to be applied on the GPU ([`crate::gpu::FrameUploader`]);
+    /// `None` when the frames are the display images.
+    pub gpu_transform: Option<DisplayMode>,
 }
 
 impl Decoded {
     /// Bytes held by the frames.
     pub fn bytes(&self) -> usize {
         self.frames.iter().map(|f| f.pixels.len() * 4).sum()
+    }
+
+    /// The size of the display image (`[width, height]`), after any transform left to the GPU.
+    pub fn display_size(&self) -> [usize; 2] {
+        let [w, h] = self.frames.first().map_or([1, 1], |f| f.size);
+        match self.gpu_transform {
+            None => [w, h],
+            Some(mode) => {
+                let (w, h) = crate::display::output_size(mode, View::Stereo, w as u32, h as u32);
+                [w as usize, h as usize]
+            }
+        }
     }
 }
 
@@ -209,16 +224,43 @@ pub fn decode_display_frame(
     Ok(to_color_image(&transform(mode, m.view, frame)))
 }
 
-/// Decodes every frame of `sequence` and applies the display mode, counting decoded frames
-/// in `progress`. Up to `threads` threads take frames from a shared counter (so a slow frame
-/// does not hold up a whole share); the first error stops the others.
+/// Decodes a frame as stored, as RGBA8 samples in an egui image used only as a buffer (no
+/// premultiplication): the input of a display transform done on the GPU.
+pub fn decode_stored_frame(path: &Path, m: &SequenceManifest) -> Result<egui::ColorImage, RunnerError> {
+    let (mut pixels, channels) = read_png(path, m.width, m.height)?;
+    let n = m.width as usize * m.height as usize;
+    let size = [m.width as usize, m.height as usize];
+    if channels == 3 {
+        return Ok(egui::ColorImage::from_rgb(size, &pixels[..3 * n]));
+    }
+    widen(&mut pixels, n, channels);
+    Ok(egui::ColorImage::from_rgba_premultiplied(size, &pixels))
+}
+
+/// Decodes every frame of `sequence` and applies the display mode on the CPU, counting
+/// decoded frames in `progress`. Up to `threads` threads take frames from a shared counter
+/// (so a slow frame does not hold up a whole share); the first error stops the others.
 pub fn decode_sequence(
     sequence: &Sequence,
     mode: DisplayMode,
     progress: &AtomicUsize,
     threads: usize,
 ) -> Result<Decoded, RunnerError> {
+    decode_sequence_for(sequence, mode, false, progress, threads)
+}
+
+/// As [`decode_sequence`], or, `for_gpu`, leaving a display mode the GPU composes
+/// ([`crate::gpu::composes_on_gpu`]) to it: the frames are then decoded as stored and
+/// [`Decoded::gpu_transform`] names the mode.
+pub fn decode_sequence_for(
+    sequence: &Sequence,
+    mode: DisplayMode,
+    for_gpu: bool,
+    progress: &AtomicUsize,
+    threads: usize,
+) -> Result<Decoded, RunnerError> {
     let m = &sequence.manifest;
+    let gpu_transform = (for_gpu && crate::gpu::composes_on_gpu(mode, m.view)).then_some(mode);
     let paths = sequence.frame_paths();
     let threads = threads.clamp(1, paths.len().max(1));
     let next = AtomicUsize::new(0);
@@ -231,7 +273,10 @@ pub fn decode_sequence(
                     while !failed.load(Ordering::Relaxed) {
                         let i = next.fetch_add(1, Ordering::Relaxed);
                         let Some(p) = paths.get(i) else { break };
-                        let frame = decode_display_frame(p, m, mode);
+                        let frame = match gpu_transform {
+                            Some(_) => decode_stored_frame(p, m),
+                            None => decode_display_frame(p, m, mode),
+                        };
                         failed.fetch_or(frame.is_err(), Ordering::Relaxed);
                         progress.fetch_add(usize::from(frame.is_ok()), Ordering::Relaxed);
                         done.push((i, frame));
@@ -255,7 +300,7 @@ pub fn decode_sequence(
         return Err(e);
     }
     let frames = slots.into_iter().map(|f| f.expect("every frame decoded when none failed")).collect();
-    Ok(Decoded { id: m.id, fps: m.fps, eye_width: crate::display::eye_width(m.view, m.width), frames })
+    Ok(Decoded { id: m.id, fps: m.fps, eye_width: crate::display::eye_width(m.view, m.width), frames, gpu_transform })
 }
 
 /// Writes a small synthetic stimulus set (for tests, benchmarks and demos without the
@@ -430,6 +475,20 @@ mod tests {
         let progress = AtomicUsize::new(0);
         let d = decode_sequence(&seq, DisplayMode::Anaglyph, &progress, 1).unwrap();
         assert_eq!((d.frames[0].size, d.eye_width), ([8, 4], 8));
+        assert_eq!((d.gpu_transform, d.display_size()), (None, [8, 4]));
+        // For the GPU the anaglyph's frames stay side by side, as stored; other modes are
+        // transformed as before.
+        let g = decode_sequence_for(&seq, DisplayMode::Anaglyph, true, &progress, 1).unwrap();
+        assert_eq!((g.frames[0].size, g.eye_width), ([16, 4], 8));
+        assert_eq!((g.gpu_transform, g.display_size()), (Some(DisplayMode::Anaglyph), [8, 4]));
+        let stored = decode_frame(&seq.frame_paths()[1], 16, 4).unwrap();
+        assert_eq!(g.frames[1].as_raw(), &stored.pixels[..]);
+        let t = decode_sequence_for(&seq, DisplayMode::TopBottom, true, &progress, 1).unwrap();
+        assert_eq!((t.gpu_transform, t.frames[0].size), (None, [8, 4]));
+        assert_eq!(
+            t.frames[0].as_raw(),
+            decode_sequence(&seq, DisplayMode::TopBottom, &progress, 1).unwrap().frames[0].as_raw()
+        );
         let mut wrong = seq.clone();
         wrong.manifest.height = 5;
         let e = decode_sequence(&wrong, DisplayMode::SbsFull, &progress, 1).unwrap_err().to_string();

@@ -7,6 +7,7 @@
 //! wgpu needs an adapter: with `BLURLAB_REQUIRE_GPU=1` a missing adapter fails the test,
 //! otherwise that step is skipped with a message.
 
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -15,18 +16,25 @@ use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use runner::app::{AppConfig, RunnerApp};
-use runner::stimuli::{StimulusSet, write_synthetic_set};
-use study::StimulusId;
-use study::experiment::ExperimentDefinition;
+use runner::display::transform;
+use runner::stimuli::{StimulusSet, decode_frame, write_synthetic_set};
+use study::experiment::{DisplayMode, ExperimentDefinition};
 use study::response::SessionLog;
+use study::{StimulusId, View};
 
 fn definition(dir: &Path, task: &str) -> ExperimentDefinition {
+    definition_of(dir, task, "mono")
+}
+
+/// A definition showing `view` (`mono` or `stereo`) sequences.
+fn definition_of(dir: &Path, task: &str, view: &str) -> ExperimentDefinition {
+    let suffix = if view == "stereo" { "-stereo" } else { "" };
     let text = format!(
         r#"format = "blurlab-experiment/1"
 name = "ui-{task}"
 task = "{task}"
 question = "Which one?"
-view = "mono"
+view = "{view}"
 [stimuli]
 material = [2]
 speed = [2]
@@ -37,9 +45,9 @@ text = "Watch for noise."
 [[briefing.examples]]
 label = "Noise"
 description = "grain"
-stimulus = "M2-S2-T3-A1"
+stimulus = "M2-S2-T3-A1{suffix}"
 [[practice]]
-pair = ["M2-S2-T1-A1", "M2-S2-T5-A5"]
+pair = ["M2-S2-T1-A1{suffix}", "M2-S2-T5-A5{suffix}"]
 [presentation]
 gap_ms = 100
 replay = true
@@ -59,7 +67,10 @@ fn config(dir: &Path, task: &str) -> AppConfig {
 }
 
 fn config_sized(dir: &Path, task: &str, width: u32, height: u32) -> AppConfig {
-    let d = definition(dir, task);
+    config_of(definition(dir, task), dir, width, height)
+}
+
+fn config_of(d: ExperimentDefinition, dir: &Path, width: u32, height: u32) -> AppConfig {
     let ids: Vec<StimulusId> = d.all_stimuli().into_iter().collect();
     let set_dir = dir.join("set");
     write_synthetic_set(&set_dir, &ids, width, height, 3, 30.0).unwrap();
@@ -391,4 +402,63 @@ fn a_given_refresh_rate_overrides_the_measurement_and_both_are_logged() {
         (Some(75.0), Some("--refresh-hz"))
     );
     assert!((display["refresh_measured_hz"].as_f64().unwrap() - 60.0).abs() < 1e-4, "{display}");
+}
+
+/// With a wgpu device, as in the real window, the loader thread uploads the frames and the
+/// runner's own pipelines draw them; in anaglyph mode the GPU composes the red-cyan image from
+/// the side-by-side frame when it is drawn.
+#[test]
+fn anaglyph_trial_is_composed_on_the_gpu_when_drawn() {
+    if let Err(e) = runner::gpu::headless_device() {
+        assert!(!require_gpu(), "BLURLAB_REQUIRE_GPU=1 but {e}");
+        eprintln!("skipped: drawing an anaglyph trial through wgpu ({e}); set BLURLAB_REQUIRE_GPU=1 to require it");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = config_of(definition_of(dir.path(), "2afc", "stereo"), dir.path(), 64, 36);
+    cfg.display = DisplayMode::Anaglyph;
+    let set = cfg.set.clone();
+    let mut h = Harness::builder()
+        .with_size([1400.0, 1100.0])
+        .with_step_dt(1.0 / 60.0)
+        .wgpu()
+        .build_eframe(move |_cc| RunnerApp::new(cfg));
+    h.run_steps(runner::app::REFRESH_CALIBRATION_FRAMES);
+    start(&mut h, "A01");
+    h.get_by_label("Begin practice").click();
+    until(&mut h, "presenting");
+    let image = h.render().unwrap();
+    // Colours of the anaglyphs the CPU composes from the trial's frames, and of the eyes'
+    // own pixels, apart from the grey field (which the Dubois matrices keep grey).
+    let trial = h.state().session().unwrap().current().unwrap().clone();
+    let (mut composed, mut eyes) = (HashSet::new(), HashSet::new());
+    let mut per_frame = 0;
+    for id in &trial.shown {
+        let seq = set.sequence(id);
+        for path in seq.frame_paths() {
+            let frame = decode_frame(&path, seq.manifest.width, seq.manifest.height).unwrap();
+            eyes.extend(frame.pixels.chunks(4).map(|p| [p[0], p[1], p[2]]));
+            let ana = transform(DisplayMode::Anaglyph, View::Stereo, frame);
+            per_frame = ana.pixels.chunks(4).filter(|p| p[..3] != [60, 60, 60]).count();
+            composed.extend(ana.pixels.chunks(4).map(|p| [p[0], p[1], p[2]]));
+        }
+    }
+    composed.remove(&[60, 60, 60]);
+    eyes.retain(|c| !composed.contains(c) && *c != [60, 60, 60]);
+    assert!(per_frame > 0 && !eyes.is_empty());
+    let rgb = |p: &image::Rgba<u8>| [p.0[0], p.0[1], p.0[2]];
+    let drawn = image.pixels().filter(|p| composed.contains(&rgb(p))).count();
+    let raw = image.pixels().filter(|p| eyes.contains(&rgb(p))).count();
+    // At least one frame's worth of the anaglyph's colours (more where the scale is above 1),
+    // and none of the eyes' own colours.
+    assert!(drawn >= per_frame, "{drawn} pixels with the anaglyph's colours, want {per_frame}");
+    assert_eq!(raw, 0, "pixels with an eye's colour shown unchanged");
+    until(&mut h, "answer");
+    h.key_press(Key::Num1);
+    h.step();
+    let path = h.state().session().unwrap().path().to_owned();
+    drop(h);
+    let r = rows(&path);
+    assert_eq!(r.len(), 1);
+    assert!(r[0].shown.iter().all(|id| id.view == View::Stereo));
 }

@@ -1,0 +1,512 @@
+//! Stimulus frames on the GPU: every frame is uploaded as its own `Rgba8Unorm` texture
+//! holding sRGB codes (the format egui-wgpu samples, with an sRGB view format), and drawn into
+//! the window by a paint callback with a pipeline of its own ([`StimulusPipelines`],
+//! `stimulus.wgsl`): an opaque copy of the display image, or, for the red-cyan anaglyph, the
+//! composition of the side-by-side frame at draw time. The anaglyph is thus never computed on
+//! the CPU in the window; its CPU twin is [`crate::display::transform`] with
+//! [`DisplayMode::Anaglyph`], and a test renders both and compares them.
+//!
+//! The window uploads with a [`FrameUploader`] on its loader thread with eframe's device;
+//! `blurlab bench playback` uses the same uploader on a headless device ([`headless_device`]),
+//! so the benchmark times the window's path.
+
+use eframe::egui_wgpu;
+use eframe::wgpu;
+use study::View;
+use study::experiment::DisplayMode;
+
+use crate::RunnerError;
+use crate::display::{DUBOIS_LEFT, DUBOIS_RIGHT};
+use crate::stimuli::Decoded;
+
+/// Whether frames of `view` shown in `mode` are composed on the GPU when drawn (the anaglyph;
+/// the other transforms stay on the CPU).
+pub fn composes_on_gpu(mode: DisplayMode, view: View) -> bool {
+    view == View::Stereo && mode == DisplayMode::Anaglyph
+}
+
+/// A device without a window (benchmarks and tests): the default adapter, which on machines
+/// without a GPU is Mesa's lavapipe when installed. Returns the device, its queue and
+/// `"NAME (BACKEND)"`.
+pub fn headless_device() -> Result<(wgpu::Device, wgpu::Queue, String), String> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+        .map_err(|e| format!("no wgpu adapter: {e}"))?;
+    let info = adapter.get_info();
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
+        .map_err(|e| format!("no wgpu device: {e}"))?;
+    Ok((device, queue, format!("{} ({:?})", info.name, info.backend)))
+}
+
+/// The WGSL source of the stimulus pipelines with the Dubois matrices filled in.
+pub fn stimulus_wgsl() -> String {
+    let row = |m: &[[f32; 3]; 3], r: usize| format!("{:?}, {:?}, {:?}", m[r][0], m[r][1], m[r][2]);
+    include_str!("stimulus.wgsl")
+        .replace("/*L0*/", &row(&DUBOIS_LEFT, 0))
+        .replace("/*L1*/", &row(&DUBOIS_LEFT, 1))
+        .replace("/*L2*/", &row(&DUBOIS_LEFT, 2))
+        .replace("/*R0*/", &row(&DUBOIS_RIGHT, 0))
+        .replace("/*R1*/", &row(&DUBOIS_RIGHT, 1))
+        .replace("/*R2*/", &row(&DUBOIS_RIGHT, 2))
+}
+
+/// How a frame texture becomes the pixels in its rectangle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Draw {
+    /// The texture is the display image.
+    Copy,
+    /// The texture is a side-by-side stereo frame; the red-cyan anaglyph is drawn.
+    Anaglyph,
+}
+
+impl Draw {
+    /// How frames decoded as `decoded` are drawn.
+    pub fn of(decoded: &Decoded) -> Result<Draw, RunnerError> {
+        match decoded.gpu_transform {
+            None => Ok(Draw::Copy),
+            Some(DisplayMode::Anaglyph) => Ok(Draw::Anaglyph),
+            Some(other) => Err(RunnerError::Input {
+                what: format!("stimulus {}", decoded.id),
+                message: format!("display mode {other} is not composed on the GPU"),
+            }),
+        }
+    }
+}
+
+/// The render pipelines that draw stimulus frames into a target of one format, with their
+/// samplers. Kept in egui-wgpu's callback resources for [`StimulusCallback`].
+pub struct StimulusPipelines {
+    copy: wgpu::RenderPipeline,
+    anaglyph: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    nearest: wgpu::Sampler,
+    linear: wgpu::Sampler,
+    target_is_srgb: bool,
+}
+
+impl StimulusPipelines {
+    /// Pipelines drawing into targets of `format` (egui's framebuffer format in the window).
+    pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Self {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("stimulus"),
+            source: wgpu::ShaderSource::Wgsl(stimulus_wgsl().into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("stimulus"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("stimulus"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let target_is_srgb = format.is_srgb();
+        let pipeline = |entry: &str| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs_main"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: None,
+                multisample: wgpu::MultisampleState::default(),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let copy = pipeline("fs_copy");
+        let anaglyph = pipeline(if target_is_srgb { "fs_anaglyph_linear" } else { "fs_anaglyph_encode" });
+        let sampler = |filter| {
+            device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("stimulus"),
+                mag_filter: filter,
+                min_filter: filter,
+                ..Default::default()
+            })
+        };
+        let (nearest, linear) = (sampler(wgpu::FilterMode::Nearest), sampler(wgpu::FilterMode::Linear));
+        StimulusPipelines { copy, anaglyph, layout, nearest, linear, target_is_srgb }
+    }
+
+    /// The bind group drawing `texture` (from [`FrameUploader::upload`]) as `draw` with
+    /// `filter`. A copy into an sRGB target reads through an sRGB view (decoded to linear
+    /// light, which the target encodes again); otherwise the shader gets the codes.
+    pub fn bind(
+        &self,
+        device: &wgpu::Device,
+        texture: &wgpu::Texture,
+        draw: Draw,
+        filter: wgpu::FilterMode,
+    ) -> wgpu::BindGroup {
+        let srgb_view = draw == Draw::Copy && self.target_is_srgb;
+        let format = if srgb_view { wgpu::TextureFormat::Rgba8UnormSrgb } else { wgpu::TextureFormat::Rgba8Unorm };
+        let view = texture.create_view(&wgpu::TextureViewDescriptor { format: Some(format), ..Default::default() });
+        let sampler = if filter == wgpu::FilterMode::Nearest { &self.nearest } else { &self.linear };
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("stimulus frame"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::Sampler(sampler) },
+            ],
+        })
+    }
+
+    /// Draws a frame bound by [`StimulusPipelines::bind`] over the pass's viewport.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, bind: &wgpu::BindGroup, draw: Draw) {
+        pass.set_pipeline(match draw {
+            Draw::Copy => &self.copy,
+            Draw::Anaglyph => &self.anaglyph,
+        });
+        pass.set_bind_group(0, bind, &[]);
+        pass.draw(0..3, 0..1);
+    }
+
+    /// Draws a frame into a new texture of `width x height` in the pipelines' format and
+    /// reads it back as tightly packed RGBA8 rows (tests and checks).
+    pub fn render(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        bind: &wgpu::BindGroup,
+        draw: Draw,
+        format: wgpu::TextureFormat,
+        (width, height): (u32, u32),
+    ) -> Result<Vec<u8>, RunnerError> {
+        let target = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("stimulus render"),
+            size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = target.create_view(&wgpu::TextureViewDescriptor::default());
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("stimulus render"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            self.draw(&mut pass, bind, draw);
+        }
+        queue.submit([encoder.finish()]);
+        read_back(device, queue, &target)
+    }
+}
+
+/// A paint callback drawing one frame with the `Arc<StimulusPipelines>` in egui-wgpu's
+/// callback resources (nothing is drawn when they are missing).
+pub struct StimulusCallback {
+    /// The frame, bound by [`StimulusPipelines::bind`].
+    pub bind: wgpu::BindGroup,
+    /// How it is drawn.
+    pub draw: Draw,
+}
+
+impl egui_wgpu::CallbackTrait for StimulusCallback {
+    fn paint(
+        &self,
+        _info: egui::PaintCallbackInfo,
+        render_pass: &mut wgpu::RenderPass<'static>,
+        resources: &egui_wgpu::CallbackResources,
+    ) {
+        if let Some(p) = resources.get::<std::sync::Arc<StimulusPipelines>>() {
+            p.draw(render_pass, &self.bind, self.draw);
+        }
+    }
+}
+
+/// Uploads decoded sequences as textures.
+pub struct FrameUploader {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+}
+
+impl FrameUploader {
+    /// An uploader on `device`.
+    pub fn new(device: wgpu::Device, queue: wgpu::Queue) -> Self {
+        FrameUploader { device, queue }
+    }
+
+    /// The device.
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    /// The queue.
+    pub fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
+    /// Puts every frame of `decoded` on the GPU, each as its own texture, and waits until the
+    /// queue has finished. The textures are `Rgba8Unorm` with an `Rgba8UnormSrgb` view format,
+    /// can be sampled and copied from, and are drawn as [`Draw::of`] says.
+    pub fn upload(&self, decoded: &Decoded) -> Result<Vec<wgpu::Texture>, RunnerError> {
+        Draw::of(decoded)?;
+        let Some(first) = decoded.frames.first() else { return Ok(Vec::new()) };
+        let (width, height) = (first.size[0] as u32, first.size[1] as u32);
+        let bad = |message: String| RunnerError::Input { what: format!("stimulus {}", decoded.id), message };
+        let max = self.device.limits().max_texture_dimension_2d;
+        if width > max || height > max {
+            return Err(bad(format!("frames of {width}x{height} exceed the GPU's texture limit of {max} pixels")));
+        }
+        if let Some(f) = decoded.frames.iter().find(|f| f.size != first.size) {
+            return Err(bad(format!("frames differ in size ({width}x{height} and {}x{})", f.size[0], f.size[1])));
+        }
+        let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+        let textures: Vec<wgpu::Texture> = decoded
+            .frames
+            .iter()
+            .map(|f| {
+                let t = self.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("frame"),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba8Unorm,
+                    usage: wgpu::TextureUsages::TEXTURE_BINDING
+                        | wgpu::TextureUsages::COPY_DST
+                        | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[wgpu::TextureFormat::Rgba8UnormSrgb],
+                });
+                self.queue.write_texture(
+                    t.as_image_copy(),
+                    f.as_raw(),
+                    wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(4 * width),
+                        rows_per_image: Some(height),
+                    },
+                    size,
+                );
+                t
+            })
+            .collect();
+        self.queue.submit([]);
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| RunnerError::Input { what: "GPU upload".into(), message: e.to_string() })?;
+        Ok(textures)
+    }
+}
+
+/// Reads a texture with 4 bytes per texel back as tightly packed rows.
+pub fn read_back(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> Result<Vec<u8>, RunnerError> {
+    let (w, h) = (texture.width(), texture.height());
+    let row = 4 * w;
+    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("read back"),
+        size: u64::from(padded) * u64::from(h),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) },
+        },
+        texture.size(),
+    );
+    queue.submit([encoder.finish()]);
+    let gpu_error = |message: String| RunnerError::Input { what: "GPU read-back".into(), message };
+    let (tx, rx) = std::sync::mpsc::channel();
+    buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| gpu_error(e.to_string()))?;
+    rx.recv().map_err(|e| gpu_error(e.to_string()))?.map_err(|e| gpu_error(e.to_string()))?;
+    let data = buffer.slice(..).get_mapped_range().map_err(|e| gpu_error(e.to_string()))?;
+    let mut out = Vec::with_capacity(row as usize * h as usize);
+    for y in 0..h as usize {
+        out.extend_from_slice(&data[y * padded as usize..y * padded as usize + row as usize]);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+
+    use super::*;
+    use crate::display::{Rgba8, transform};
+
+    fn require_gpu() -> bool {
+        std::env::var("BLURLAB_REQUIRE_GPU").is_ok_and(|v| v == "1")
+    }
+
+    /// A headless device, or `None` (the test skips, saying so) unless BLURLAB_REQUIRE_GPU=1.
+    fn device() -> Option<FrameUploader> {
+        match headless_device() {
+            Ok((device, queue, name)) => {
+                eprintln!("GPU test on {name}");
+                Some(FrameUploader::new(device, queue))
+            }
+            Err(e) if !require_gpu() => {
+                eprintln!("skipped: {e}; set BLURLAB_REQUIRE_GPU=1 to require a GPU adapter");
+                None
+            }
+            Err(e) => panic!("BLURLAB_REQUIRE_GPU=1 but {e}"),
+        }
+    }
+
+    /// Stereo frames of `eye x h` per eye: random pixels, with greys and primaries (where
+    /// clamping and the linear toe of the sRGB curve meet) in the first row.
+    fn stereo_frames(eye: u32, h: u32, n: usize, seed: u64) -> Vec<Rgba8> {
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+        (0..n)
+            .map(|_| {
+                let mut f = Rgba8::filled(2 * eye, h, [0, 0, 0, 255]);
+                for y in 0..h {
+                    for x in 0..2 * eye {
+                        let v = rng.next_u32().to_le_bytes();
+                        f.set(x, y, [v[0], v[1], v[2], 255]);
+                    }
+                }
+                for (x, v) in [0u8, 1, 2, 5, 10, 11, 12, 50, 128, 200, 254, 255].into_iter().enumerate() {
+                    let x = 2 * x as u32;
+                    f.set(x, 0, [v, v, v, 255]);
+                    f.set(eye + x, 0, [v, v, v, 255]);
+                    f.set(x + 1, 0, [v, 0, 0, 255]);
+                    f.set(eye + x + 1, 0, [0, v, v, 255]);
+                }
+                f
+            })
+            .collect()
+    }
+
+    fn decoded(frames: &[Rgba8], gpu_transform: Option<DisplayMode>) -> Decoded {
+        let image =
+            |f: &Rgba8| egui::ColorImage::from_rgba_premultiplied([f.width as usize, f.height as usize], &f.pixels);
+        Decoded {
+            id: "M2-S2-T3-A5-stereo".parse().unwrap(),
+            fps: 30.0,
+            eye_width: frames[0].width / 2,
+            frames: frames.iter().map(image).collect(),
+            gpu_transform,
+        }
+    }
+
+    #[test]
+    fn anaglyph_pipeline_agrees_with_its_cpu_twin_within_one_code() {
+        let Some(gpu) = device() else { return };
+        // An odd eye width and height: the draw covers the whole target, nothing more.
+        let (eye, h) = (101, 37);
+        let frames = stereo_frames(eye, h, 2, 11);
+        let textures = gpu.upload(&decoded(&frames, Some(DisplayMode::Anaglyph))).unwrap();
+        assert_eq!(textures.len(), frames.len());
+        assert_eq!((textures[0].width(), textures[0].height()), (2 * eye, h));
+        // Both ways out: encoded by the shader (egui's gamma framebuffers) and by the target.
+        for format in
+            [wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Bgra8Unorm, wgpu::TextureFormat::Rgba8UnormSrgb]
+        {
+            let pipelines = StimulusPipelines::new(gpu.device(), format);
+            let (mut channels, mut exact) = (0usize, 0usize);
+            for (frame, texture) in frames.iter().zip(&textures) {
+                let bind = pipelines.bind(gpu.device(), texture, Draw::Anaglyph, wgpu::FilterMode::Nearest);
+                let mut got =
+                    pipelines.render(gpu.device(), gpu.queue(), &bind, Draw::Anaglyph, format, (eye, h)).unwrap();
+                if format == wgpu::TextureFormat::Bgra8Unorm {
+                    got.chunks_mut(4).for_each(|p| p.swap(0, 2));
+                }
+                let want = transform(DisplayMode::Anaglyph, View::Stereo, frame.clone());
+                for (i, (g, w)) in got.chunks(4).zip(want.pixels.chunks(4)).enumerate() {
+                    let (x, y) = (i as u32 % eye, i as u32 / eye);
+                    for c in 0..3 {
+                        assert!(
+                            g[c].abs_diff(w[c]) <= 1,
+                            "{format:?} pixel ({x},{y}) channel {c}: GPU {} vs CPU {} (left {:?}, right {:?})",
+                            g[c],
+                            w[c],
+                            frame.get(x, y),
+                            frame.get(eye + x, y)
+                        );
+                        exact += usize::from(g[c] == w[c]);
+                        channels += 1;
+                    }
+                    assert_eq!(g[3], 255);
+                }
+            }
+            eprintln!("{format:?}: {exact} of {channels} channels equal to the CPU's");
+            // The shader's encoding rounds like the CPU (on lavapipe every channel was equal);
+            // an sRGB target's own encoding is an approximation (93.7% equal on lavapipe).
+            let share = if format.is_srgb() { 0.9 } else { 0.99 };
+            assert!(exact as f64 > share * channels as f64, "{format:?}: {exact} of {channels} channels equal");
+        }
+    }
+
+    #[test]
+    fn frames_shown_unchanged_are_uploaded_and_drawn_byte_for_byte() {
+        let Some(gpu) = device() else { return };
+        let frames = stereo_frames(7, 5, 3, 3);
+        let textures = gpu.upload(&decoded(&frames, None)).unwrap();
+        for format in [wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Rgba8UnormSrgb] {
+            let pipelines = StimulusPipelines::new(gpu.device(), format);
+            for (frame, texture) in frames.iter().zip(&textures) {
+                assert_eq!((texture.width(), texture.height()), (14, 5));
+                assert_eq!(read_back(gpu.device(), gpu.queue(), texture).unwrap(), frame.pixels);
+                // Drawn at twice the size with a nearest sampler: each texel becomes 2x2 pixels.
+                let bind = pipelines.bind(gpu.device(), texture, Draw::Copy, wgpu::FilterMode::Nearest);
+                let got = pipelines.render(gpu.device(), gpu.queue(), &bind, Draw::Copy, format, (28, 10)).unwrap();
+                for y in 0..10u32 {
+                    for x in 0..28u32 {
+                        let i = 4 * (y * 28 + x) as usize;
+                        assert_eq!(got[i..i + 4], frame.get(x / 2, y / 2), "{format:?} ({x},{y})");
+                    }
+                }
+            }
+        }
+        // A mode the GPU does not compose is refused with a message.
+        let e = gpu.upload(&decoded(&frames, Some(DisplayMode::TopBottom))).unwrap_err().to_string();
+        assert!(e.contains("top-bottom is not composed on the GPU"), "{e}");
+    }
+}
