@@ -29,6 +29,10 @@ pub struct Args {
     /// Also play trials in a real window (needs DISPLAY, e.g. Xvfb) and report frame intervals.
     #[arg(long)]
     window: bool,
+    /// Display mode of the trials played in the window: `mono` plays the mono sequences, a
+    /// stereo mode (e.g. `anaglyph`, `sbs-full`) the stereo ones.
+    #[arg(long, default_value = "mono")]
+    window_display: String,
     /// Trials played in the window.
     #[arg(long, default_value_t = 2)]
     trials: usize,
@@ -129,7 +133,11 @@ fn measure(args: &Args, work: &Path, threads: usize) -> anyhow::Result<serde_jso
     } else {
         let results = work.join("results");
         let _ = std::fs::remove_dir_all(&results);
-        let mut config = runner::app::AppConfig::new(mono.clone(), mono_set.clone(), results);
+        let display: DisplayMode =
+            args.window_display.parse().map_err(|m: String| anyhow::anyhow!("--window-display: {m}"))?;
+        let (definition, set) = if display == DisplayMode::Mono { (&mono, &mono_set) } else { (&stereo, &stereo_set) };
+        let mut config = runner::app::AppConfig::new(definition.clone(), set.clone(), results);
+        config.display = display;
         config.participant = Some("BENCH".into());
         config.seed = Some(1);
         config.autopilot = Some(args.trials);
@@ -147,6 +155,7 @@ fn measure(args: &Args, work: &Path, threads: usize) -> anyhow::Result<serde_jso
         let refresh = app.refresh();
         serde_json::json!({
             "trials": app.written.len(),
+            "display": display.name(),
             "window_size": window_size,
             "refresh_used_hz": refresh.hz,
             "refresh_source": refresh.source,
