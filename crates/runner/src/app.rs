@@ -862,7 +862,7 @@ impl RunnerApp {
         match pb.update(now) {
             Screen::Frame { frame, .. } => {
                 loaded.textures[&id].show(ui, frame, size);
-                repaint_at(ui.ctx(), pb, now, 1.0 / refresh_hz);
+                repaint_at(ui.ctx(), pb, now);
             }
             _ => {
                 blank(ui, size, "");
@@ -911,7 +911,7 @@ impl RunnerApp {
                 self.refresh_intervals_ms.push((now - prev) * 1000.0);
             }
             self.last_refresh = Some(now);
-            repaint_at(ui.ctx(), pb, now, 1.0 / refresh);
+            repaint_at(ui.ctx(), pb, now);
         }
         if trial.practice {
             ui.label(RichText::new("Practice trial (not counted)").italics());
@@ -1004,16 +1004,19 @@ impl RunnerApp {
     }
 }
 
-/// Asks for the next redraw in time for the screen's next change (the next frame or the end
-/// of a gap) instead of redrawing continuously in between, when a redraw would show the
-/// same image. eframe counts a requested delay from the end of the current frame, after it
-/// was drawn and presented, so the redraw is asked for one refresh interval before the change
-/// is due; from there frames follow back to back (locked to the display's refresh where
-/// presentation waits for it) until the change is on screen.
-fn repaint_at(ctx: &egui::Context, playback: &Playback, now: f64, refresh_s: f64) {
-    match playback.next_change().map(|t| t - now - refresh_s) {
-        Some(wait) if wait > 0.0 => ctx.request_repaint_after(std::time::Duration::from_secs_f64(wait)),
-        _ => ctx.request_repaint(),
+/// How long after a change is due the redraw showing it is asked for (seconds): timers may
+/// fire a little early, and a redraw before the change would show the old image and leave
+/// the change to the redraw after it, a whole redraw later.
+const WAKE_MARGIN_S: f64 = 0.001;
+
+/// Asks for the next redraw when the screen next changes (the next frame or the end of a gap),
+/// instead of redrawing in between, when a redraw would show the same image. egui hands the
+/// delay to eframe at once, which counts it from then (a moment after `now`, the pass's start)
+/// and starts the redraw at that time, or as soon as the current one is presented if that is
+/// later; so one redraw per frame starts just after the frame is due.
+fn repaint_at(ctx: &egui::Context, playback: &Playback, now: f64) {
+    if let Some(change) = playback.next_change() {
+        ctx.request_repaint_after(std::time::Duration::from_secs_f64((change - now).max(0.0) + WAKE_MARGIN_S));
     }
 }
 
