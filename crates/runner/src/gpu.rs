@@ -262,6 +262,10 @@ impl egui_wgpu::CallbackTrait for StimulusCallback {
     }
 }
 
+/// Bytes of frames written before the writes are submitted: the device copies them into
+/// their textures while the next ones are staged, and their staging memory is freed sooner.
+const SUBMIT_BYTES: u64 = 16 << 20;
+
 /// Uploads decoded sequences as textures.
 pub struct FrameUploader {
     device: wgpu::Device,
@@ -300,10 +304,13 @@ impl FrameUploader {
             return Err(bad(format!("frames differ in size ({width}x{height} and {}x{})", f.size[0], f.size[1])));
         }
         let size = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+        let frame_bytes = 4 * u64::from(width) * u64::from(height);
+        let per_submit = SUBMIT_BYTES.div_ceil(frame_bytes).max(1) as usize;
         let textures: Vec<wgpu::Texture> = decoded
             .frames
             .iter()
-            .map(|f| {
+            .enumerate()
+            .map(|(i, f)| {
                 let t = self.device.create_texture(&wgpu::TextureDescriptor {
                     label: Some("frame"),
                     size,
@@ -326,6 +333,9 @@ impl FrameUploader {
                     },
                     size,
                 );
+                if (i + 1) % per_submit == 0 {
+                    self.queue.submit([]);
+                }
                 t
             })
             .collect();
