@@ -15,7 +15,8 @@
 //! to [`MAX_DISTRIBUTION_ROWS`] rows high and a square of `f x f` pixels (`f` a power of
 //! two) of larger ones: the distribution then stays small enough to live in the caches
 //! (a full-resolution one of a 1024 x 512 map is 14 MB and every light sample missed the
-//! cache), while radiance is still looked up at full resolution. The density a sample is
+//! cache), while radiance is still looked up at full resolution. The rows' tables are
+//! 16-bit fixed point (see `rows`), which keeps them in a core's L2 cache. The density a sample is
 //! given is the one it was drawn with, computed from the stored cumulative tables
 //! themselves, so the estimator stays unbiased whatever the cell size and rounding. Every
 //! map, including the built-in default and the uniform one of the furnace tests, goes
@@ -29,6 +30,9 @@ use study::scene::{Environment, Lighting};
 
 use crate::io::{LinearImage, decode_exr, decode_hdr};
 use crate::math::{sin_cos_small, sin_cos_turns};
+
+mod rows;
+use rows::RowDistributions;
 
 /// Errors of building an environment map; each names the file (when there is one) and
 /// what is wrong with it.
@@ -134,11 +138,8 @@ pub struct EnvironmentMap {
     marginal_cdf: Vec<f64>,
     /// Guide table of the marginal (see [`guide_table`]).
     marginal_guide: Vec<u16>,
-    /// Per distribution row, cumulative cell weights, `dist_width + 1` entries from 0 to 1
-    /// (a uniform row where the row has no weight).
-    conditional_cdf: Vec<f32>,
-    /// Per distribution row, the guide table of its conditional, `dist_width` entries.
-    conditional_guide: Vec<u16>,
+    /// The rows' conditional distributions, in 16-bit fixed point.
+    rows: RowDistributions,
     /// Whether any pixel has weight (a black map cannot be sampled).
     samplable: bool,
     /// `cos theta` of the row edges, `height + 1` entries from 1 down to -1.
@@ -301,30 +302,21 @@ impl EnvironmentMap {
         let total: f64 = row_sums.iter().sum();
         let samplable = total > 0.0 && total.is_finite();
         let mut marginal_cdf = vec![0.0; hd + 1];
-        let mut conditional_cdf = vec![0.0f32; hd * (wd + 1)];
         for y in 0..hd {
             marginal_cdf[y + 1] =
                 if samplable { marginal_cdf[y] + row_sums[y] / total } else { (y + 1) as f64 / hd as f64 };
-            let row = &mut conditional_cdf[y * (wd + 1)..(y + 1) * (wd + 1)];
-            let mut running = 0.0;
-            for x in 0..wd {
-                running += weights[y * wd + x];
-                row[x + 1] =
-                    if row_sums[y] > 0.0 { (running / row_sums[y]) as f32 } else { (x + 1) as f32 / wd as f32 };
-            }
-            row[wd] = 1.0;
         }
         marginal_cdf[hd] = 1.0;
         let marginal_guide = guide_table(&marginal_cdf);
         // Cell columns fit 16 bits (a map would need more than 2^17 pixels across to
-        // exceed them); half-size guide entries keep the distribution in the caches.
-        if wd > usize::from(u16::MAX) {
+        // exceed them); 16-bit tables keep the distribution in the caches.
+        if wd >= usize::from(u16::MAX) {
             return Err(EnvError::Parameter(format!(
                 "{name}: a map {w} pixels wide is too large to sample (at most {} pixels)",
-                u32::from(u16::MAX) * f
+                (u32::from(u16::MAX) - 1) * f
             )));
         }
-        let conditional_guide = conditional_cdf.chunks_exact(wd + 1).flat_map(guide_table).collect();
+        let rows = RowDistributions::new(&weights, wd);
         let texels = radiance.iter().map(|r| [r.x as f32, r.y as f32, r.z as f32]).collect();
         let row_edge_cos = (0..=h).map(|j| sin_cos_turns(0.5 * f64::from(j) / f64::from(h)).1).collect();
         let col_edge: Vec<(f64, f64)> = (0..=w).map(|j| sin_cos_turns(f64::from(j) / f64::from(w))).collect();
@@ -364,8 +356,7 @@ impl EnvironmentMap {
             rot_sin: rotation_y.sin(),
             marginal_cdf,
             marginal_guide,
-            conditional_cdf,
-            conditional_guide,
+            rows,
             samplable,
         })
     }
@@ -509,9 +500,8 @@ impl EnvironmentMap {
             return 0.0;
         }
         let (wd, hd) = (self.dist_width as usize, self.dist_height as usize);
-        let row = &self.conditional_cdf[y * (wd + 1)..(y + 1) * (wd + 1)];
         let p_row = self.marginal_cdf[y + 1] - self.marginal_cdf[y];
-        p_row * (f64::from(row[x + 1]) - f64::from(row[x])) * (wd * hd) as f64
+        p_row * self.rows.probability(y, x) * (wd * hd) as f64
     }
 
     /// Picks a direction with density proportional to luminance x sin(theta) per pixel,
@@ -523,9 +513,8 @@ impl EnvironmentMap {
         }
         let (wd, hd) = (self.dist_width as usize, self.dist_height as usize);
         let (y, fy) = sample_cdf(&self.marginal_cdf, &self.marginal_guide, u[0]);
-        let row = &self.conditional_cdf[y * (wd + 1)..(y + 1) * (wd + 1)];
-        let (x, fx) = sample_cdf(row, &self.conditional_guide[y * wd..(y + 1) * wd], u[1]);
-        let density = self.cell_density(x, y);
+        let (x, fx, p_x) = self.rows.sample(y, u[1]);
+        let density = (self.marginal_cdf[y + 1] - self.marginal_cdf[y]) * p_x * (wd * hd) as f64;
         if density <= 0.0 {
             return None;
         }
@@ -561,35 +550,16 @@ fn texel_radiance(t: &[f32; 3]) -> DVec3 {
     DVec3::new(f64::from(t[0]), f64::from(t[1]), f64::from(t[2]))
 }
 
-/// An entry of a cumulative distribution table.
-trait CdfValue: Copy {
-    fn value(self) -> f64;
-}
-
-impl CdfValue for f64 {
-    #[inline]
-    fn value(self) -> f64 {
-        self
-    }
-}
-
-impl CdfValue for f32 {
-    #[inline]
-    fn value(self) -> f64 {
-        f64::from(self)
-    }
-}
-
 /// A guide table for inverting a cumulative distribution of `n + 1` entries: entry `k` is
 /// the interval holding `u = k / n`, so a search for `u` starts at most a few intervals
 /// before its answer (a binary search over a large map misses the cache at every step).
-fn guide_table<T: CdfValue>(cdf: &[T]) -> Vec<u16> {
+fn guide_table(cdf: &[f64]) -> Vec<u16> {
     let n = cdf.len() - 1;
     let mut guide = Vec::with_capacity(n);
     let mut i = 0;
     for k in 0..n {
         let u = k as f64 / n as f64;
-        while i + 1 < n && cdf[i + 1].value() <= u {
+        while i + 1 < n && cdf[i + 1] <= u {
             i += 1;
         }
         guide.push(i as u16);
@@ -599,7 +569,7 @@ fn guide_table<T: CdfValue>(cdf: &[T]) -> Vec<u16> {
 
 /// Inverts a cumulative distribution of `n + 1` entries: the chosen interval and the
 /// fractional position inside it. Intervals of zero width are never chosen.
-fn sample_cdf<T: CdfValue>(cdf: &[T], guide: &[u16], u: f64) -> (usize, f64) {
+fn sample_cdf(cdf: &[f64], guide: &[u16], u: f64) -> (usize, f64) {
     let n = cdf.len() - 1;
     // The answer, the first index i with cdf[i + 1] > u, lies between the guide entries
     // of u's cell and of the next cell: a binary search between them costs a few steps
@@ -607,16 +577,16 @@ fn sample_cdf<T: CdfValue>(cdf: &[T], guide: &[u16], u: f64) -> (usize, f64) {
     let k = ((u * n as f64) as usize).min(n - 1);
     let lo = usize::from(guide[k]);
     let hi = if k + 1 < n { usize::from(guide[k + 1]).max(lo) } else { n - 1 };
-    let mut i = lo + cdf[lo + 1..=hi].partition_point(|&c| c.value() <= u);
+    let mut i = lo + cdf[lo + 1..=hi].partition_point(|&c| c <= u);
     // Rounding of u * n can put u a hair outside its cell: finish by scanning.
-    while i + 1 < n && cdf[i + 1].value() <= u {
+    while i + 1 < n && cdf[i + 1] <= u {
         i += 1;
     }
-    while i > 0 && cdf[i].value() > u {
+    while i > 0 && cdf[i] > u {
         i -= 1;
     }
-    let width = cdf[i + 1].value() - cdf[i].value();
-    let f = if width > 0.0 { ((u - cdf[i].value()) / width).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.5 };
+    let width = cdf[i + 1] - cdf[i];
+    let f = if width > 0.0 { ((u - cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.5 };
     (i, f)
 }
 
@@ -946,7 +916,7 @@ mod tests {
         let loaded = EnvironmentMap::from_lighting(&lighting(Environment::File { path: file("good.exr") })).unwrap();
         let direct = EnvironmentMap::from_image(&img, 1.0, 0.0, "x").unwrap();
         assert_eq!(loaded.texels, direct.texels);
-        assert_eq!((&loaded.marginal_cdf, &loaded.conditional_cdf), (&direct.marginal_cdf, &direct.conditional_cdf));
+        assert_eq!((&loaded.marginal_cdf, &loaded.rows), (&direct.marginal_cdf, &direct.rows));
     }
 
     #[test]
