@@ -230,8 +230,7 @@ enum Frames {
     /// Managed by egui (uploaded by egui at the next paint; without a wgpu device).
     Egui(Vec<TextureHandle>),
     /// Uploaded by the loader thread ([`FrameUploader`]) and drawn by a paint callback with
-    /// the [`StimulusPipelines`] (one bind group per frame; the textures live as long as
-    /// their bind groups).
+    /// the [`StimulusPipelines`] (one bind group per frame, which keeps its texture alive).
     Native {
         /// Per frame.
         binds: Vec<eframe::wgpu::BindGroup>,
@@ -334,8 +333,9 @@ pub struct RunnerApp {
     present_times: Vec<f64>,
     measured: Option<RefreshEstimate>,
     measuring_done: bool,
-    /// eframe's wgpu device and renderer, once the first frame has shown them (`None` in
-    /// headless tests and with the glow renderer: egui uploads the frames then).
+    /// eframe's wgpu device and the stimulus pipelines, once the first frame has shown the
+    /// device (`None` in headless tests and with the glow renderer: egui uploads the frames
+    /// then, and the display transforms all run on the CPU).
     gpu: Option<GpuTarget>,
 }
 
@@ -523,7 +523,8 @@ impl RunnerApp {
         }
     }
 
-    /// Hands prepared sequences to egui: images to upload, or textures to register.
+    /// Hands prepared sequences to the window: images for egui to upload, or textures bound
+    /// for the runner's stimulus pipelines.
     fn upload(ctx: &egui::Context, prepared: Vec<Prepared>, filter: TextureOptions) -> Loaded {
         let mut loaded = Loaded { textures: HashMap::new(), fps: HashMap::new(), size: HashMap::new() };
         for d in prepared {

@@ -9,7 +9,8 @@
 // encoded here (`fs_anaglyph_encode`, for targets that store the codes given, like egui's
 // gamma-space framebuffers) or by the target (`fs_anaglyph_linear`, for sRGB targets). At an
 // integer scale with a nearest sampler each output pixel comes from one texel pair, as on
-// the CPU.
+// the CPU; with a filtering sampler (a scale that is not an integer) each eye's codes are
+// filtered before the composition, where the CPU path's image was filtered after it.
 
 @group(0) @binding(0) var image: texture_2d<f32>;
 @group(0) @binding(1) var image_sampler: sampler;
