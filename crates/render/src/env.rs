@@ -31,8 +31,8 @@ use study::scene::{Environment, Lighting};
 use crate::io::{LinearImage, decode_exr, decode_hdr};
 use crate::math::{sin_cos_small, sin_cos_turns};
 
-mod rows;
-use rows::RowDistributions;
+mod cdf16;
+use cdf16::Cdf16;
 
 /// Errors of building an environment map; each names the file (when there is one) and
 /// what is wrong with it.
@@ -135,11 +135,9 @@ pub struct EnvironmentMap {
     rot_sin: f64,
     /// Cumulative weights of the distribution's rows, `dist_height + 1` entries from 0
     /// to 1.
-    marginal_cdf: Vec<f64>,
-    /// Guide table of the marginal (see [`guide_table`]).
-    marginal_guide: Vec<u16>,
+    marginal: Cdf16,
     /// The rows' conditional distributions, in 16-bit fixed point.
-    rows: RowDistributions,
+    rows: Cdf16,
     /// Whether any pixel has weight (a black map cannot be sampled).
     samplable: bool,
     /// `cos theta` of the row edges, `height + 1` entries from 1 down to -1.
@@ -301,13 +299,6 @@ impl EnvironmentMap {
         let row_sums: Vec<f64> = weights.chunks_exact(wd).map(|r| r.iter().sum()).collect();
         let total: f64 = row_sums.iter().sum();
         let samplable = total > 0.0 && total.is_finite();
-        let mut marginal_cdf = vec![0.0; hd + 1];
-        for y in 0..hd {
-            marginal_cdf[y + 1] =
-                if samplable { marginal_cdf[y] + row_sums[y] / total } else { (y + 1) as f64 / hd as f64 };
-        }
-        marginal_cdf[hd] = 1.0;
-        let marginal_guide = guide_table(&marginal_cdf);
         // Cell columns fit 16 bits (a map would need more than 2^17 pixels across to
         // exceed them); 16-bit tables keep the distribution in the caches.
         if wd >= usize::from(u16::MAX) {
@@ -316,7 +307,8 @@ impl EnvironmentMap {
                 (u32::from(u16::MAX) - 1) * f
             )));
         }
-        let rows = RowDistributions::new(&weights, wd);
+        let marginal = Cdf16::new(&row_sums, hd);
+        let rows = Cdf16::new(&weights, wd);
         let texels = radiance.iter().map(|r| [r.x as f32, r.y as f32, r.z as f32]).collect();
         let row_edge_cos = (0..=h).map(|j| sin_cos_turns(0.5 * f64::from(j) / f64::from(h)).1).collect();
         let col_edge: Vec<(f64, f64)> = (0..=w).map(|j| sin_cos_turns(f64::from(j) / f64::from(w))).collect();
@@ -354,8 +346,7 @@ impl EnvironmentMap {
             dist_height: hd as u32,
             rot_cos: rotation_y.cos(),
             rot_sin: rotation_y.sin(),
-            marginal_cdf,
-            marginal_guide,
+            marginal,
             rows,
             samplable,
         })
@@ -500,7 +491,7 @@ impl EnvironmentMap {
             return 0.0;
         }
         let (wd, hd) = (self.dist_width as usize, self.dist_height as usize);
-        let p_row = self.marginal_cdf[y + 1] - self.marginal_cdf[y];
+        let p_row = self.marginal.probability(0, y);
         p_row * self.rows.probability(y, x) * (wd * hd) as f64
     }
 
@@ -512,9 +503,9 @@ impl EnvironmentMap {
             return None;
         }
         let (wd, hd) = (self.dist_width as usize, self.dist_height as usize);
-        let (y, fy) = sample_cdf(&self.marginal_cdf, &self.marginal_guide, u[0]);
+        let (y, fy, p_y) = self.marginal.sample(0, u[0]);
         let (x, fx, p_x) = self.rows.sample(y, u[1]);
-        let density = (self.marginal_cdf[y + 1] - self.marginal_cdf[y]) * p_x * (wd * hd) as f64;
+        let density = p_y * p_x * (wd * hd) as f64;
         if density <= 0.0 {
             return None;
         }
@@ -548,46 +539,6 @@ impl EnvironmentMap {
 
 fn texel_radiance(t: &[f32; 3]) -> DVec3 {
     DVec3::new(f64::from(t[0]), f64::from(t[1]), f64::from(t[2]))
-}
-
-/// A guide table for inverting a cumulative distribution of `n + 1` entries: entry `k` is
-/// the interval holding `u = k / n`, so a search for `u` starts at most a few intervals
-/// before its answer (a binary search over a large map misses the cache at every step).
-fn guide_table(cdf: &[f64]) -> Vec<u16> {
-    let n = cdf.len() - 1;
-    let mut guide = Vec::with_capacity(n);
-    let mut i = 0;
-    for k in 0..n {
-        let u = k as f64 / n as f64;
-        while i + 1 < n && cdf[i + 1] <= u {
-            i += 1;
-        }
-        guide.push(i as u16);
-    }
-    guide
-}
-
-/// Inverts a cumulative distribution of `n + 1` entries: the chosen interval and the
-/// fractional position inside it. Intervals of zero width are never chosen.
-fn sample_cdf(cdf: &[f64], guide: &[u16], u: f64) -> (usize, f64) {
-    let n = cdf.len() - 1;
-    // The answer, the first index i with cdf[i + 1] > u, lies between the guide entries
-    // of u's cell and of the next cell: a binary search between them costs a few steps
-    // even where one cell spans many intervals of a peaked map.
-    let k = ((u * n as f64) as usize).min(n - 1);
-    let lo = usize::from(guide[k]);
-    let hi = if k + 1 < n { usize::from(guide[k + 1]).max(lo) } else { n - 1 };
-    let mut i = lo + cdf[lo + 1..=hi].partition_point(|&c| c <= u);
-    // Rounding of u * n can put u a hair outside its cell: finish by scanning.
-    while i + 1 < n && cdf[i + 1] <= u {
-        i += 1;
-    }
-    while i > 0 && cdf[i] > u {
-        i -= 1;
-    }
-    let width = cdf[i + 1] - cdf[i];
-    let f = if width > 0.0 { ((u - cdf[i]) / width).clamp(0.0, 1.0 - f64::EPSILON) } else { 0.5 };
-    (i, f)
 }
 
 fn load_image(path: &Path) -> Result<LinearImage, EnvError> {
@@ -838,30 +789,6 @@ mod tests {
     }
 
     #[test]
-    fn guided_cdf_inversion_finds_the_first_interval_past_u() {
-        // A peaked distribution (one cell holds most of the mass) with zero-width
-        // intervals, inverted at many u against a linear search.
-        let mut weights: Vec<f64> = (0..300).map(|i| if i % 7 == 0 { 0.0 } else { 1.0 + (i % 5) as f64 }).collect();
-        weights[150] = 1.0e5;
-        let total: f64 = weights.iter().sum();
-        let mut cdf = vec![0.0];
-        for w in &weights {
-            cdf.push(cdf.last().unwrap() + w / total);
-        }
-        *cdf.last_mut().unwrap() = 1.0;
-        let guide = guide_table(&cdf);
-        let mut rng = 3_u64;
-        for k in 0..200_000 {
-            rng = study::seed::splitmix64(rng);
-            let u = if k < 1000 { cdf[k % 300] } else { (rng >> 11) as f64 / (1u64 << 53) as f64 };
-            let (i, f) = sample_cdf(&cdf, &guide, u);
-            let expected = (0..300).find(|&i| cdf[i + 1] > u).unwrap_or(299);
-            assert_eq!(i, expected, "u {u}");
-            assert!(weights[i] > 0.0 && (0.0..1.0).contains(&f));
-        }
-    }
-
-    #[test]
     fn uniform_and_black_maps() {
         let map = EnvironmentMap::from_lighting(&lighting(Environment::Uniform { radiance: [2.0, 2.0, 2.0] })).unwrap();
         assert_eq!(map.radiance(DVec3::new(0.3, -0.2, 0.9)), DVec3::splat(2.0));
@@ -916,7 +843,7 @@ mod tests {
         let loaded = EnvironmentMap::from_lighting(&lighting(Environment::File { path: file("good.exr") })).unwrap();
         let direct = EnvironmentMap::from_image(&img, 1.0, 0.0, "x").unwrap();
         assert_eq!(loaded.texels, direct.texels);
-        assert_eq!((&loaded.marginal_cdf, &loaded.rows), (&direct.marginal_cdf, &direct.rows));
+        assert_eq!((&loaded.marginal, &loaded.rows), (&direct.marginal, &direct.rows));
     }
 
     #[test]

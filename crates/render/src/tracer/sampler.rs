@@ -4,9 +4,11 @@
 //! Each pixel owns a seed (the eye's seed mixed with the pixel index), so the values a
 //! pixel draws do not depend on which thread or tile renders it. Each sampling dimension
 //! (pixel position, time, the light and BSDF choices of every bounce, ...) gets its own
-//! scramble and its own shuffle of the sample index: dimensions are padded, not
-//! correlated, and the points of one dimension over the pixel's samples stay well
-//! stratified (a (0, 2)-sequence in 2D). Skipping a dimension (no time sampling in a
+//! scramble, and every one but the pixel position its own shuffle of the sample index:
+//! dimensions are padded, not correlated, and the points of one dimension over the
+//! pixel's samples stay well stratified (a (0, 2)-sequence in 2D). The pixel position
+//! keeps the samples' own order, the reference the other dimensions are shuffled
+//! against (one shuffle fewer per camera sample). Skipping a dimension (no time sampling in a
 //! static frame) does not change the values of the others.
 
 use study::seed::splitmix64;
@@ -165,7 +167,8 @@ struct DimSeeds {
 #[derive(Clone, Debug)]
 pub struct PixelSampler {
     seed: u64,
-    /// The current sample's index, bit-reversed.
+    /// The current sample's index, and bit-reversed.
+    index: u32,
     reversed_index: u32,
     /// Seeds of the first `cached` dimensions: they do not change between the pixel's
     /// samples, so they are derived once per pixel rather than once per value.
@@ -184,12 +187,13 @@ impl PixelSampler {
         for (d, s) in seeds.iter_mut().enumerate().take(cached as usize) {
             *s = derive_seeds(seed, d as u32);
         }
-        PixelSampler { seed, reversed_index: 0, seeds, cached }
+        PixelSampler { seed, index: 0, reversed_index: 0, seeds, cached }
     }
 
     /// Moves to sample `index` of this pixel.
     #[inline]
     pub fn start_sample(&mut self, index: u32) {
+        self.index = index;
         self.reversed_index = index.reverse_bits();
     }
 
@@ -198,9 +202,13 @@ impl PixelSampler {
         if dim < self.cached { self.seeds[dim as usize] } else { derive_seeds(self.seed, dim) }
     }
 
-    /// The shuffled sample index of a dimension, `owen_scramble(index, shuffle)`.
+    /// The shuffled sample index of a dimension, `owen_scramble(index, shuffle)`; the
+    /// pixel position's is the index itself.
     #[inline]
-    fn shuffled_index(&self, s: &DimSeeds) -> u32 {
+    fn shuffled_index(&self, dim: u32, s: &DimSeeds) -> u32 {
+        if dim == dim::PIXEL {
+            return self.index;
+        }
         laine_karras(self.reversed_index, s.shuffle).reverse_bits()
     }
 
@@ -212,7 +220,7 @@ impl PixelSampler {
     #[inline]
     pub fn get_1d(&self, dim: u32) -> f64 {
         let s = self.seeds(dim);
-        let i = self.shuffled_index(&s);
+        let i = self.shuffled_index(dim, &s);
         to_unit(laine_karras(i, s.first).reverse_bits())
     }
 
@@ -220,7 +228,7 @@ impl PixelSampler {
     #[inline]
     pub fn get_2d(&self, dim: u32) -> [f64; 2] {
         let s = self.seeds(dim);
-        let i = self.shuffled_index(&s);
+        let i = self.shuffled_index(dim, &s);
         [
             to_unit(laine_karras(i, s.first).reverse_bits()),
             to_unit(laine_karras(sobol1_reversed(i), s.second).reverse_bits()),
@@ -259,6 +267,33 @@ mod tests {
     }
 
     #[test]
+    fn each_dimension_of_a_pixels_samples_is_a_net() {
+        // The first 2^m samples of any 2D dimension of a pixel, shuffled or not, put one
+        // point in every cell of every 2^a x 2^b grid with a + b = m.
+        for (pixel, m) in [(0u32, 4u32), (7, 6), (123, 3)] {
+            let mut sampler = PixelSampler::new(2024, pixel, 1, 640, 8);
+            for dim in [dim::PIXEL, dim::BOUNCE_BASE + dim::LIGHT, dim::BOUNCE_BASE + dim::BSDF, 40] {
+                let pts: Vec<[f64; 2]> = (0..1u32 << m)
+                    .map(|i| {
+                        sampler.start_sample(i);
+                        sampler.get_2d(dim)
+                    })
+                    .collect();
+                for a in 0..=m {
+                    let b = m - a;
+                    let mut seen = vec![false; 1 << m];
+                    for p in &pts {
+                        let cell =
+                            (((p[0] * f64::from(1u32 << a)) as usize) << b) | (p[1] * f64::from(1u32 << b)) as usize;
+                        assert!(!seen[cell], "pixel {pixel} dim {dim} grid 2^{a} x 2^{b}: two points in one cell");
+                        seen[cell] = true;
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
     fn sobol1_tables_match_the_bitwise_definition() {
         let mut x = 0x2545_f491_u64;
         for i in (0..4096u32).chain([u32::MAX, 1 << 31, 0x8000_0001]) {
@@ -275,7 +310,7 @@ mod tests {
             sampler.start_sample(index);
             for dim in 0..10 {
                 let s = derive_seeds(sampler.seed, dim);
-                let i = owen_scramble(index, s.shuffle);
+                let i = if dim == dim::PIXEL { index } else { owen_scramble(index, s.shuffle) };
                 let expected =
                     [to_unit(owen_scramble(sobol0(i), s.first)), to_unit(owen_scramble(sobol1_bitwise(i), s.second))];
                 assert_eq!(sampler.get_2d(dim), expected);

@@ -1,26 +1,27 @@
-//! The per-row (conditional) half of the environment's light-sampling distribution, in
-//! 16-bit fixed point.
+//! Piecewise-constant 1D distributions in 16-bit fixed point: the marginal (one
+//! distribution over the rows) and the conditionals (one per row) of the environment's
+//! light-sampling distribution.
 //!
-//! A light sample picks a row from the marginal distribution (small, always in cache),
-//! then a cell of that row. The rows hold most of the distribution's memory and are read
-//! at random, so their size decides whether a sample hits the core's L2 cache: 16-bit
-//! cumulative tables with each row's guide table beside its cumulative table take about a
-//! third of the f32 tables with separate guides, and the two look-ups of a sample fall in
-//! one contiguous row.
+//! The conditionals hold most of the distribution's memory and are read at random, so
+//! their size decides whether a light sample hits the core's L2 cache: 16-bit cumulative
+//! tables with each distribution's guide table beside it take about a third of f32 tables
+//! with separate guides, and the two look-ups of a sample fall in one contiguous block.
+//! Integer comparisons also make the inversion exact: no rounding puts `u` a hair outside
+//! the interval its guide entry names.
 //!
-//! Quantising the cumulative weights changes the probabilities by at most `1 / 65535` of
-//! a row; the density the sampler reports is always computed from the stored tables, so
-//! the estimator stays unbiased. A cell whose share of its row is below that resolution
-//! may get probability zero: it is then reached only by BSDF sampling, whose multiple
-//! importance weight is 1 where the light density is 0.
+//! Quantising the cumulative weights changes each probability by at most `1 / 65535`; the
+//! density the sampler reports is always computed from the stored tables, so the estimator
+//! stays unbiased. A cell whose share is below that resolution may get probability zero:
+//! it is then reached only by BSDF sampling, whose multiple importance weight is 1 where
+//! the light density is 0.
 
-/// A row's cumulative weight in fixed point runs from 0 to `ONE`.
+/// A distribution's cumulative weight in fixed point runs from 0 to `ONE`.
 const ONE: u32 = u16::MAX as u32;
 
-/// Conditional distributions of all rows of the sampling distribution.
+/// Distributions over `width` cells each, stored one after another ("rows").
 #[derive(Clone, Debug, PartialEq)]
-pub(super) struct RowDistributions {
-    /// Cells per row.
+pub(super) struct Cdf16 {
+    /// Cells per distribution.
     width: usize,
     /// Guide entries per row (a power of two) and `16 - log2` of it: guide entry `k`
     /// covers fixed-point positions `[k << guide_shift, (k + 1) << guide_shift)`.
@@ -33,9 +34,9 @@ pub(super) struct RowDistributions {
     table: Vec<u16>,
 }
 
-impl RowDistributions {
-    /// The rows of a `width`-column distribution from its non-negative cell weights (row
-    /// after row). A row without weight becomes uniform.
+impl Cdf16 {
+    /// Distributions over `width` cells from non-negative cell weights, `width` per
+    /// distribution, one distribution after another. One without weight becomes uniform.
     pub(super) fn new(weights: &[f64], width: usize) -> Self {
         assert!(width > 0 && width < ONE as usize && weights.len().is_multiple_of(width));
         let guide_len = (width / 8).clamp(1, 1 << 16).next_power_of_two();
@@ -63,22 +64,22 @@ impl RowDistributions {
             }
             table.extend_from_slice(&cdf);
         }
-        RowDistributions { width, guide_len, guide_shift, stride, table }
+        Cdf16 { width, guide_len, guide_shift, stride, table }
     }
 
     fn cdf(&self, y: usize) -> &[u16] {
         &self.table[y * self.stride + self.guide_len..(y + 1) * self.stride]
     }
 
-    /// The probability of cell `x` within row `y`.
+    /// The probability of cell `x` in distribution `y`.
     #[inline]
     pub(super) fn probability(&self, y: usize, x: usize) -> f64 {
         let cdf = self.cdf(y);
         f64::from(cdf[x + 1] - cdf[x]) * (1.0 / f64::from(ONE))
     }
 
-    /// Inverts row `y`'s distribution at `u` in [0, 1): the cell, the position inside it
-    /// in [0, 1), and the cell's probability (never zero).
+    /// Inverts distribution `y` at `u` in [0, 1): the cell, the position inside it in
+    /// [0, 1), and the cell's probability (never zero).
     #[inline]
     pub(super) fn sample(&self, y: usize, u: f64) -> (usize, f64, f64) {
         let row = &self.table[y * self.stride..(y + 1) * self.stride];
@@ -118,7 +119,7 @@ mod tests {
     fn inversion_equals_a_linear_search_of_the_fixed_point_table() {
         for width in [1usize, 3, 8, 300, 512] {
             let weights = rows(width);
-            let d = RowDistributions::new(&weights, width);
+            let d = Cdf16::new(&weights, width);
             let mut rng = 11_u64;
             for y in 0..weights.len() / width {
                 let cdf = d.cdf(y);
@@ -144,7 +145,7 @@ mod tests {
     fn probabilities_sum_to_one_and_follow_the_weights_to_the_table_resolution() {
         let width = 300;
         let weights = rows(width);
-        let d = RowDistributions::new(&weights, width);
+        let d = Cdf16::new(&weights, width);
         for (y, row) in weights.chunks_exact(width).enumerate() {
             let sum: f64 = row.iter().sum();
             let total: f64 = (0..width).map(|x| d.probability(y, x)).sum();
