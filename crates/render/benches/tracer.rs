@@ -15,6 +15,7 @@ fn main() {
         peer_script: root.join("bench/mitsuba_peer.py"),
         mitsuba_sampler: args.get(2).cloned().unwrap_or_else(|| "independent".into()),
         work: None,
+        rounds: 3,
     };
     match run_benchmark(&opts) {
         Ok(result) => println!("{}", serde_json::to_string_pretty(&result).expect("JSON")),

@@ -114,6 +114,10 @@ pub struct BenchOptions {
     pub mitsuba_sampler: String,
     /// Folder for the peer's scene and images (default: a new temporary folder).
     pub work: Option<PathBuf>,
+    /// Rounds of the whole measurement (ours, then the peer's); each renderer's rate is
+    /// its best render over all rounds, so a passing disturbance of the machine does not
+    /// decide the comparison.
+    pub rounds: u32,
 }
 
 /// Errors of the benchmark.
@@ -215,7 +219,10 @@ fn timed_render(scene: &FrameScene, env: &EnvironmentMap) -> Timed {
 ///
 /// Noise is the RMS over pixels and channels of the difference of two independently
 /// seeded renders divided by sqrt(2): an unbiased estimate of the per-pixel standard
-/// deviation that needs no reference image.
+/// deviation that needs no reference image. Each round renders our moving frame and both
+/// static seeds, then runs the peer (which renders its two seeds); rates are each
+/// renderer's best render over all rounds (Mitsuba's driver has always reported its best),
+/// and the means are reported beside them.
 pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchError> {
     let machine = machine();
     let design = Design::load(&opts.design)?;
@@ -228,15 +235,44 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
     warm.samples_per_pixel = 1;
     render_frame(&warm, &env);
 
-    let moving_run = timed_render(&moving, &env);
-    let static_a = timed_render(&frozen, &env);
     let mut frozen_b = frozen.clone();
     frozen_b.views[0].seed ^= 0x9e37_79b9_7f4a_7c15;
-    let static_b = timed_render(&frozen_b, &env);
-    let ours_static_sps = (static_a.samples + static_b.samples) as f64 / (static_a.seconds + static_b.seconds);
+    let peer = match opts.peer.as_str() {
+        "mitsuba" => {
+            let work = match &opts.work {
+                Some(w) => w.clone(),
+                None => std::env::temp_dir().join(format!("blurlab-bench-tracer-{}", std::process::id())),
+            };
+            std::fs::create_dir_all(&work).map_err(|e| BenchError::File(work.clone(), e))?;
+            write_peer_scene(&frozen, &work, &opts.mitsuba_sampler)?;
+            Some(work)
+        }
+        "none" => None,
+        other => return Err(BenchError::Peer(format!("unknown peer `{other}` (expected mitsuba or none)"))),
+    };
+
+    // Rounds alternate the renderers; the images of the last round are kept (the same
+    // seeds give the same images every round).
+    let (mut moving_seconds, mut static_seconds, mut peer_runs) = (Vec::new(), Vec::new(), Vec::new());
+    let mut last = None;
+    for _ in 0..opts.rounds.max(1) {
+        let moving_run = timed_render(&moving, &env);
+        let static_a = timed_render(&frozen, &env);
+        let static_b = timed_render(&frozen_b, &env);
+        moving_seconds.push(moving_run.seconds);
+        static_seconds.extend([static_a.seconds, static_b.seconds]);
+        if let Some(work) = &peer {
+            peer_runs.push(run_peer(opts, work)?);
+        }
+        last = Some((moving_run, static_a, static_b));
+    }
+    let (moving_run, static_a, static_b) = last.expect("at least one round");
+    let best = |samples: u64, seconds: &[f64]| samples as f64 / seconds.iter().copied().fold(f64::INFINITY, f64::min);
+    let mean = |samples: u64, seconds: &[f64]| samples as f64 * seconds.len() as f64 / seconds.iter().sum::<f64>();
+    let ours_static_sps = best(static_a.samples, &static_seconds);
     let ours_noise = rms_noise(&static_a.image, &static_b.image);
     let ours_mean = mean_rgb(&[&static_a.image, &static_b.image]);
-    let moving_sps = moving_run.samples as f64 / moving_run.seconds;
+    let moving_sps = best(moving_run.samples, &moving_seconds);
 
     let preset = design.preset("full")?;
     // Camera samples of the whole set: every (M, S, T) at every A level, mono (1 eye) and
@@ -264,14 +300,16 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
         },
         "blurlab": {
             "moving_frame": {
-                "seconds": moving_run.seconds,
+                "seconds": moving_seconds,
                 "camera_samples": moving_run.samples,
                 "camera_samples_per_second": moving_sps,
+                "camera_samples_per_second_mean": mean(moving_run.samples, &moving_seconds),
                 "nonfinite_samples": moving_run.nonfinite,
             },
             "static_frame": {
-                "seconds": [static_a.seconds, static_b.seconds],
+                "seconds": static_seconds,
                 "camera_samples_per_second": ours_static_sps,
+                "camera_samples_per_second_mean": mean(static_a.samples, &static_seconds),
                 "noise_rms": ours_noise,
                 "mean_rgb": ours_mean,
             },
@@ -284,44 +322,39 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
         },
     });
 
-    if opts.peer == "mitsuba" {
-        let work = match &opts.work {
-            Some(w) => w.clone(),
-            None => std::env::temp_dir().join(format!("blurlab-bench-tracer-{}", std::process::id())),
-        };
-        std::fs::create_dir_all(&work).map_err(|e| BenchError::File(work.clone(), e))?;
-        write_peer_scene(&frozen, &work, &opts.mitsuba_sampler)?;
-        let status =
-            std::process::Command::new(&opts.python).arg(&opts.peer_script).arg(&work).status().map_err(|e| {
-                BenchError::Peer(format!("cannot start {} {}: {e}", opts.python, opts.peer_script.display()))
-            })?;
-        if !status.success() {
-            return Err(BenchError::Peer(format!(
-                "the Mitsuba peer failed ({status}); is `pip install mitsuba` done?"
-            )));
+    if let Some(work) = &peer {
+        let peer_samples = static_a.samples;
+        let peer_seconds: Vec<f64> = peer_runs
+            .iter()
+            .flat_map(|r| r["render_seconds"].as_array().into_iter().flatten().filter_map(serde_json::Value::as_f64))
+            .collect();
+        if peer_seconds.is_empty() {
+            return Err(BenchError::Peer("the Mitsuba peer reported no render times".into()));
         }
-        let peer_json = work.join("mitsuba.json");
-        let peer: serde_json::Value = serde_json::from_slice(&read(&peer_json)?)
-            .map_err(|e| BenchError::Peer(format!("{}: {e}", peer_json.display())))?;
+        let their_sps = best(peer_samples, &peer_seconds);
+        let their_sps_mean = mean(peer_samples, &peer_seconds);
         let load = |name: &str| -> Result<LinearImage, BenchError> {
             let path = work.join(name);
             decode_exr(&read(&path)?).map_err(|e| BenchError::Peer(format!("{}: {e}", path.display())))
         };
         let (ma, mb) = (load("mitsuba-seed1.exr")?, load("mitsuba-seed2.exr")?);
         let their_noise = rms_noise(&ma, &mb);
-        let their_sps = peer["camera_samples_per_second"].as_f64().unwrap_or(f64::NAN);
         let ours_avg = average(&static_a.image, &static_b.image);
         let theirs_avg = average(&ma, &mb);
         // Agreement of the two renderers' images (includes both noises).
         let image_rms_difference = ours_avg.rms_difference(&theirs_avg);
         result["mitsuba"] = json!({
-            "driver": peer,
+            "driver": peer_runs,
+            "render_seconds": peer_seconds,
             "camera_samples_per_second": their_sps,
+            "camera_samples_per_second_mean": their_sps_mean,
             "noise_rms": their_noise,
             "mean_rgb": mean_rgb(&[&ma, &mb]),
         });
         result["comparison"] = json!({
+            "rate": "best render of all rounds, for both renderers",
             "speedup_static": ours_static_sps / their_sps,
+            "speedup_static_mean": mean(static_a.samples, &static_seconds) / their_sps_mean,
             "speedup_moving_vs_mitsuba_static": moving_sps / their_sps,
             "noise_ratio_blurlab_over_mitsuba": ours_noise / their_noise,
             "image_rms_difference": image_rms_difference,
@@ -330,11 +363,23 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
         write(&work.join("blurlab-seed1.exr"), &encode_exr(&static_a.image)?)?;
         write(&work.join("blurlab-seed2.exr"), &encode_exr(&static_b.image)?)?;
         result["work_dir"] = json!(work);
-    } else if opts.peer != "none" {
-        return Err(BenchError::Peer(format!("unknown peer `{}` (expected mitsuba or none)", opts.peer)));
     }
 
     Ok(result)
+}
+
+/// Runs one round of the Mitsuba driver in `work` (scene already written) and returns
+/// its report.
+fn run_peer(opts: &BenchOptions, work: &Path) -> Result<serde_json::Value, BenchError> {
+    let status =
+        std::process::Command::new(&opts.python).arg(&opts.peer_script).arg(work).status().map_err(|e| {
+            BenchError::Peer(format!("cannot start {} {}: {e}", opts.python, opts.peer_script.display()))
+        })?;
+    if !status.success() {
+        return Err(BenchError::Peer(format!("the Mitsuba peer failed ({status}); is `pip install mitsuba` done?")));
+    }
+    let peer_json = work.join("mitsuba.json");
+    serde_json::from_slice(&read(&peer_json)?).map_err(|e| BenchError::Peer(format!("{}: {e}", peer_json.display())))
 }
 
 /// Writes `scene.json`, the environment map and the sphere's baked albedo for the peer.

@@ -36,6 +36,10 @@ pub struct Args {
     /// Folder for the peer's scene and images (default: a new temporary folder).
     #[arg(long)]
     work: Option<PathBuf>,
+    /// Rounds of the measurement (ours, then the peer's, alternating); each renderer's
+    /// rate is its best render over all rounds.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    rounds: u32,
 }
 
 /// Runs the benchmark.
@@ -48,6 +52,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         peer_script: args.peer_script,
         mitsuba_sampler: args.mitsuba_sampler,
         work: args.work,
+        rounds: args.rounds,
     };
     let result = run_benchmark(&opts)?;
     if args.json {
