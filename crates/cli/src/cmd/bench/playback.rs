@@ -1,6 +1,6 @@
-//! `blurlab bench playback`: decode and upload time of one sequence (640x360 mono and
-//! 1280x360 side-by-side stereo, synthetic frames) and of a 2AFC trial's two sequences
-//! (each against the 1 s target), memory held during a stereo 2AFC trial, and, with
+//! `blurlab bench playback`: decode and upload time of one sequence (640x360 mono, and
+//! 1280x360 side-by-side stereo in every stereo display mode; synthetic frames) and of a 2AFC
+//! trial's two sequences (each against the 1 s target), memory held during a stereo 2AFC trial, and, with
 //! `--window` and a display, frame-interval statistics of real playback in the runner's
 //! window driven by its autopilot.
 
@@ -95,24 +95,24 @@ fn measure(args: &Args, work: &Path, threads: usize) -> anyhow::Result<serde_jso
         }
         Err(e) => (None, serde_json::json!({ "unavailable": e })),
     };
+    // Mono sequences shown in mono, then the stereo sequences in every stereo display mode
+    // (sbs-full first: its trial is the one whose memory is reported).
+    let modes: Vec<(&StimulusSet, &Vec<StimulusId>, DisplayMode)> =
+        std::iter::once((&mono_set, &mono_ids, DisplayMode::Mono))
+            .chain(
+                DisplayMode::ALL.into_iter().filter(|m| *m != DisplayMode::Mono).map(|m| (&stereo_set, &stereo_ids, m)),
+            )
+            .collect();
     let mut sequences = Vec::new();
-    for (set, id, mode) in [
-        (&mono_set, mono_ids[0], DisplayMode::Mono),
-        (&stereo_set, stereo_ids[0], DisplayMode::SbsFull),
-        (&stereo_set, stereo_ids[0], DisplayMode::Anaglyph),
-    ] {
+    for &(set, ids, mode) in &modes {
         // Once to warm the file cache, then measured.
-        let _ = decode_upload(set.sequence(&id), mode, threads, None).map_err(runner_error)?;
-        let r = decode_upload(set.sequence(&id), mode, threads, gpu.as_ref()).map_err(runner_error)?;
+        let _ = decode_upload(set.sequence(&ids[0]), mode, threads, None).map_err(runner_error)?;
+        let r = decode_upload(set.sequence(&ids[0]), mode, threads, gpu.as_ref()).map_err(runner_error)?;
         sequences.push(serde_json::json!({ "mode": mode.name(), "result": r }));
     }
     // A 2AFC trial shows two sequences: both decoded, then both uploaded, as the window does.
     let mut trials = Vec::new();
-    for (set, ids, mode) in [
-        (&mono_set, &mono_ids, DisplayMode::Mono),
-        (&stereo_set, &stereo_ids, DisplayMode::SbsFull),
-        (&stereo_set, &stereo_ids, DisplayMode::Anaglyph),
-    ] {
+    for &(set, ids, mode) in &modes {
         let r = trial_load(set.sequence(&ids[0]), set.sequence(&ids[1]), mode, threads, gpu.as_ref())
             .map_err(runner_error)?;
         trials.push(r);
