@@ -234,8 +234,10 @@ enum Frames {
     Native {
         /// Per frame.
         binds: Vec<eframe::wgpu::BindGroup>,
-        /// A copy of the display image, or the anaglyph of a stereo frame.
+        /// A copy of the display image, or a composition of a stereo frame.
         draw: Draw,
+        /// The sampler's filter the frames were bound with.
+        filter: eframe::wgpu::FilterMode,
     },
 }
 
@@ -253,9 +255,9 @@ impl Frames {
             Frames::Egui(h) => {
                 ui.image(egui::load::SizedTexture::new(h[frame].id(), size));
             }
-            Frames::Native { binds, draw } => {
+            Frames::Native { binds, draw, filter } => {
                 let (rect, _) = ui.allocate_exact_size(size, egui::Sense::hover());
-                let callback = StimulusCallback { bind: binds[frame].clone(), draw: *draw };
+                let callback = StimulusCallback { bind: binds[frame].clone(), draw: *draw, filter: *filter };
                 ui.painter().add(eframe::egui_wgpu::Callback::new_paint_callback(rect, callback));
             }
         }
@@ -544,7 +546,7 @@ impl RunnerApp {
                     };
                     let device = gpu.uploader.device();
                     let binds = textures.iter().map(|t| gpu.pipelines.bind(device, t, draw, filter_mode)).collect();
-                    Frames::Native { binds, draw }
+                    Frames::Native { binds, draw, filter: filter_mode }
                 }
             };
             loaded.fps.insert(d.id, d.fps);

@@ -1,10 +1,11 @@
 //! Stimulus frames on the GPU: every frame is uploaded as its own `Rgba8Unorm` texture
 //! holding sRGB codes (the format egui-wgpu samples, with an sRGB view format), and drawn into
 //! the window by a paint callback with a pipeline of its own ([`StimulusPipelines`],
-//! `stimulus.wgsl`): an opaque copy of the display image, or, for the red-cyan anaglyph, the
-//! composition of the side-by-side frame at draw time. The anaglyph is thus never computed on
-//! the CPU in the window; its CPU twin is [`crate::display::transform`] with
-//! [`DisplayMode::Anaglyph`], and a test renders both and compares them.
+//! `stimulus.wgsl`): an opaque copy of the display image, or, for the stereo modes that
+//! transform the frame (red-cyan anaglyph, side by side at half width, top-bottom,
+//! row-interleaved), the composition of the side-by-side frame at draw time. Those modes are
+//! thus never computed on the CPU in the window; their CPU twin is
+//! [`crate::display::transform`], and tests render both and compare them.
 //!
 //! The window uploads with a [`FrameUploader`] on its loader thread with eframe's device;
 //! `blurlab bench playback` uses the same uploader on a headless device ([`headless_device`]),
@@ -19,10 +20,15 @@ use crate::RunnerError;
 use crate::display::{DUBOIS_LEFT, DUBOIS_RIGHT};
 use crate::stimuli::Decoded;
 
-/// Whether frames of `view` shown in `mode` are composed on the GPU when drawn (the anaglyph;
-/// the other transforms stay on the CPU).
+/// Whether frames of `view` shown in `mode` are composed on the GPU when drawn: the stereo
+/// modes that transform the frame, except `mono` (the left eye, a crop the CPU does while
+/// decoding; it halves what is uploaded).
 pub fn composes_on_gpu(mode: DisplayMode, view: View) -> bool {
-    view == View::Stereo && mode == DisplayMode::Anaglyph
+    view == View::Stereo
+        && matches!(
+            mode,
+            DisplayMode::Anaglyph | DisplayMode::SbsHalf | DisplayMode::TopBottom | DisplayMode::RowInterleaved
+        )
 }
 
 /// A device without a window (benchmarks and tests): the default adapter, which on machines
@@ -57,6 +63,19 @@ pub enum Draw {
     Copy,
     /// The texture is a side-by-side stereo frame; the red-cyan anaglyph is drawn.
     Anaglyph,
+    /// The texture is a side-by-side stereo frame; each eye is drawn squeezed to half width.
+    SbsHalf,
+    /// The texture is a side-by-side stereo frame; the eyes are drawn top and bottom, each
+    /// squeezed to half height.
+    TopBottom,
+    /// The texture is a side-by-side stereo frame; its rows are drawn interleaved.
+    RowInterleaved,
+}
+
+impl Draw {
+    /// The compositions of `fs_compose` in `stimulus.wgsl`, in the order of its `MODE`
+    /// constant (1, 2, 3).
+    const COMPOSED: [Draw; 3] = [Draw::SbsHalf, Draw::TopBottom, Draw::RowInterleaved];
 }
 
 impl Draw {
@@ -65,6 +84,9 @@ impl Draw {
         match decoded.gpu_transform {
             None => Ok(Draw::Copy),
             Some(DisplayMode::Anaglyph) => Ok(Draw::Anaglyph),
+            Some(DisplayMode::SbsHalf) => Ok(Draw::SbsHalf),
+            Some(DisplayMode::TopBottom) => Ok(Draw::TopBottom),
+            Some(DisplayMode::RowInterleaved) => Ok(Draw::RowInterleaved),
             Some(other) => Err(RunnerError::Input {
                 what: format!("stimulus {}", decoded.id),
                 message: format!("display mode {other} is not composed on the GPU"),
@@ -78,6 +100,8 @@ impl Draw {
 pub struct StimulusPipelines {
     copy: wgpu::RenderPipeline,
     anaglyph: wgpu::RenderPipeline,
+    /// `fs_compose` per [`Draw::COMPOSED`] mode, with a nearest sampler and with a filtering one.
+    composed: [[wgpu::RenderPipeline; 2]; 3],
     layout: wgpu::BindGroupLayout,
     nearest: wgpu::Sampler,
     linear: wgpu::Sampler,
@@ -118,7 +142,8 @@ impl StimulusPipelines {
             immediate_size: 0,
         });
         let target_is_srgb = format.is_srgb();
-        let pipeline = |entry: &str| {
+        let pipeline = |entry: &str, constants: &[(&str, f64)]| {
+            let compilation_options = wgpu::PipelineCompilationOptions { constants, ..Default::default() };
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(entry),
                 layout: Some(&pipeline_layout),
@@ -131,7 +156,7 @@ impl StimulusPipelines {
                 fragment: Some(wgpu::FragmentState {
                     module: &module,
                     entry_point: Some(entry),
-                    compilation_options: Default::default(),
+                    compilation_options,
                     targets: &[Some(wgpu::ColorTargetState {
                         format,
                         blend: None,
@@ -145,8 +170,15 @@ impl StimulusPipelines {
                 cache: None,
             })
         };
-        let copy = pipeline("fs_copy");
-        let anaglyph = pipeline(if target_is_srgb { "fs_anaglyph_linear" } else { "fs_anaglyph_encode" });
+        let copy = pipeline("fs_copy", &[]);
+        let anaglyph = pipeline(if target_is_srgb { "fs_anaglyph_linear" } else { "fs_anaglyph_encode" }, &[]);
+        let srgb = f64::from(u8::from(target_is_srgb));
+        let composed = std::array::from_fn(|mode| {
+            std::array::from_fn(|filtered| {
+                let constants = [("MODE", mode as f64 + 1.0), ("FILTERED", filtered as f64), ("SRGB_TARGET", srgb)];
+                pipeline("fs_compose", &constants)
+            })
+        });
         let sampler = |filter| {
             device.create_sampler(&wgpu::SamplerDescriptor {
                 label: Some("stimulus"),
@@ -156,7 +188,7 @@ impl StimulusPipelines {
             })
         };
         let (nearest, linear) = (sampler(wgpu::FilterMode::Nearest), sampler(wgpu::FilterMode::Linear));
-        StimulusPipelines { copy, anaglyph, layout, nearest, linear, target_is_srgb }
+        StimulusPipelines { copy, anaglyph, composed, layout, nearest, linear, target_is_srgb }
     }
 
     /// The bind group drawing `texture` (from [`FrameUploader::upload`]) as `draw` with
@@ -183,11 +215,16 @@ impl StimulusPipelines {
         })
     }
 
-    /// Draws a frame bound by [`StimulusPipelines::bind`] over the pass's viewport.
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, bind: &wgpu::BindGroup, draw: Draw) {
+    /// Draws a frame bound by [`StimulusPipelines::bind`] with the same `draw` and `filter`
+    /// over the pass's viewport.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, bind: &wgpu::BindGroup, draw: Draw, filter: wgpu::FilterMode) {
         pass.set_pipeline(match draw {
             Draw::Copy => &self.copy,
             Draw::Anaglyph => &self.anaglyph,
+            Draw::SbsHalf | Draw::TopBottom | Draw::RowInterleaved => {
+                let mode = Draw::COMPOSED.iter().position(|d| *d == draw).expect("a composed mode");
+                &self.composed[mode][usize::from(filter != wgpu::FilterMode::Nearest)]
+            }
         });
         pass.set_bind_group(0, bind, &[]);
         pass.draw(0..3, 0..1);
@@ -197,14 +234,14 @@ impl StimulusPipelines {
     /// reads it back as tightly packed RGBA8 rows (tests and checks).
     pub fn render(
         &self,
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
+        gpu: &FrameUploader,
         bind: &wgpu::BindGroup,
         draw: Draw,
+        filter: wgpu::FilterMode,
         format: wgpu::TextureFormat,
         (width, height): (u32, u32),
     ) -> Result<Vec<u8>, RunnerError> {
-        let target = device.create_texture(&wgpu::TextureDescriptor {
+        let target = gpu.device().create_texture(&wgpu::TextureDescriptor {
             label: Some("stimulus render"),
             size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
             mip_level_count: 1,
@@ -215,7 +252,7 @@ impl StimulusPipelines {
             view_formats: &[],
         });
         let view = target.create_view(&wgpu::TextureViewDescriptor::default());
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        let mut encoder = gpu.device().create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("stimulus render"),
@@ -233,10 +270,10 @@ impl StimulusPipelines {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            self.draw(&mut pass, bind, draw);
+            self.draw(&mut pass, bind, draw, filter);
         }
-        queue.submit([encoder.finish()]);
-        read_back(device, queue, &target)
+        gpu.queue().submit([encoder.finish()]);
+        read_back(gpu.device(), gpu.queue(), &target)
     }
 }
 
@@ -247,6 +284,8 @@ pub struct StimulusCallback {
     pub bind: wgpu::BindGroup,
     /// How it is drawn.
     pub draw: Draw,
+    /// The sampler's filter it was bound with.
+    pub filter: wgpu::FilterMode,
 }
 
 impl egui_wgpu::CallbackTrait for StimulusCallback {
@@ -257,7 +296,7 @@ impl egui_wgpu::CallbackTrait for StimulusCallback {
         resources: &egui_wgpu::CallbackResources,
     ) {
         if let Some(p) = resources.get::<std::sync::Arc<StimulusPipelines>>() {
-            p.draw(render_pass, &self.bind, self.draw);
+            p.draw(render_pass, &self.bind, self.draw, self.filter);
         }
     }
 }
@@ -388,7 +427,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     use super::*;
-    use crate::display::{Rgba8, transform};
+    use crate::display::{Rgba8, linear_to_srgb, srgb_to_linear, transform};
 
     fn require_gpu() -> bool {
         std::env::var("BLURLAB_REQUIRE_GPU").is_ok_and(|v| v == "1")
@@ -463,8 +502,8 @@ mod tests {
             let (mut channels, mut exact) = (0usize, 0usize);
             for (frame, texture) in frames.iter().zip(&textures) {
                 let bind = pipelines.bind(gpu.device(), texture, Draw::Anaglyph, wgpu::FilterMode::Nearest);
-                let mut got =
-                    pipelines.render(gpu.device(), gpu.queue(), &bind, Draw::Anaglyph, format, (eye, h)).unwrap();
+                let nearest = wgpu::FilterMode::Nearest;
+                let mut got = pipelines.render(&gpu, &bind, Draw::Anaglyph, nearest, format, (eye, h)).unwrap();
                 if format == wgpu::TextureFormat::Bgra8Unorm {
                     got.chunks_mut(4).for_each(|p| p.swap(0, 2));
                 }
@@ -506,7 +545,8 @@ mod tests {
                 assert_eq!(read_back(gpu.device(), gpu.queue(), texture).unwrap(), frame.pixels);
                 // Drawn at twice the size with a nearest sampler: each texel becomes 2x2 pixels.
                 let bind = pipelines.bind(gpu.device(), texture, Draw::Copy, wgpu::FilterMode::Nearest);
-                let got = pipelines.render(gpu.device(), gpu.queue(), &bind, Draw::Copy, format, (28, 10)).unwrap();
+                let nearest = wgpu::FilterMode::Nearest;
+                let got = pipelines.render(&gpu, &bind, Draw::Copy, nearest, format, (28, 10)).unwrap();
                 for y in 0..10u32 {
                     for x in 0..28u32 {
                         let i = 4 * (y * 28 + x) as usize;
@@ -516,7 +556,121 @@ mod tests {
             }
         }
         // A mode the GPU does not compose is refused with a message.
-        let e = gpu.upload(&decoded(&frames, Some(DisplayMode::TopBottom))).unwrap_err().to_string();
-        assert!(e.contains("top-bottom is not composed on the GPU"), "{e}");
+        let e = gpu.upload(&decoded(&frames, Some(DisplayMode::SbsFull))).unwrap_err().to_string();
+        assert!(e.contains("sbs-full is not composed on the GPU"), "{e}");
+    }
+
+    /// The window's CPU path at a scale that is not an integer: the display image drawn with a
+    /// filtering sampler, i.e. at render pixel (x, y) of `size` the bilinear mix (clamped at the
+    /// edges) of the image's four pixels around the pixel's centre, of their codes for targets
+    /// that store codes, of their linear values for sRGB targets; computed in f64.
+    /// Also returns, per channel, the range of the four pixels' codes.
+    fn bilinear(image: &Rgba8, size: (u32, u32), (x, y): (u32, u32), srgb: bool) -> ([f64; 3], [f64; 3]) {
+        let at = |i: f64, n: u32| {
+            let p = i - 0.5;
+            let i0 = p.floor();
+            let clamp = |v: f64| v.clamp(0.0, f64::from(n - 1)) as u32;
+            (clamp(i0), clamp(i0 + 1.0), p - i0)
+        };
+        let (x0, x1, fx) = at((f64::from(x) + 0.5) / f64::from(size.0) * f64::from(image.width), image.width);
+        let (y0, y1, fy) = at((f64::from(y) + 0.5) / f64::from(size.1) * f64::from(image.height), image.height);
+        let range = std::array::from_fn(|c| {
+            let codes = [(x0, y0), (x1, y0), (x0, y1), (x1, y1)].map(|(x, y)| image.get(x, y)[c]);
+            f64::from(codes.iter().max().unwrap() - codes.iter().min().unwrap())
+        });
+        let mixed = std::array::from_fn(|c| {
+            let v = |x, y| {
+                let code = image.get(x, y)[c];
+                if srgb { f64::from(srgb_to_linear(code)) } else { f64::from(code) }
+            };
+            let top = v(x0, y0) * (1.0 - fx) + v(x1, y0) * fx;
+            let bottom = v(x0, y1) * (1.0 - fx) + v(x1, y1) * fx;
+            let mixed = top * (1.0 - fy) + bottom * fy;
+            if srgb { f64::from(linear_to_srgb(mixed as f32)) } else { mixed }
+        });
+        (mixed, range)
+    }
+
+    #[test]
+    fn composed_pipelines_agree_with_their_cpu_twin_within_one_code() {
+        let Some(gpu) = device() else { return };
+        // An odd eye width and height: the squeezes leave a black last column or row.
+        let (eye, h) = (101, 37);
+        let frames = stereo_frames(eye, h, 2, 5);
+        let (nearest, linear) = (wgpu::FilterMode::Nearest, wgpu::FilterMode::Linear);
+        for mode in [DisplayMode::SbsHalf, DisplayMode::TopBottom, DisplayMode::RowInterleaved] {
+            let decoded = decoded(&frames, Some(mode));
+            let draw = Draw::of(&decoded).unwrap();
+            let textures = gpu.upload(&decoded).unwrap();
+            assert_eq!((textures[0].width(), textures[0].height()), (2 * eye, h));
+            for format in
+                [wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Bgra8Unorm, wgpu::TextureFormat::Rgba8UnormSrgb]
+            {
+                let pipelines = StimulusPipelines::new(gpu.device(), format);
+                // Integer scales with a nearest sampler (each image pixel becomes s x s pixels),
+                // and 1.5 with a filtering one.
+                for (filter, size) in [
+                    (nearest, (eye, h)),
+                    (nearest, (2 * eye, 2 * h)),
+                    (nearest, (3 * eye, 3 * h)),
+                    (linear, (3 * eye / 2, 3 * h / 2)),
+                ] {
+                    let (mut channels, mut exact, mut beyond_one) = (0usize, 0usize, 0usize);
+                    for (frame, texture) in frames.iter().zip(&textures) {
+                        let bind = pipelines.bind(gpu.device(), texture, draw, filter);
+                        let mut got = pipelines.render(&gpu, &bind, draw, filter, format, size).unwrap();
+                        if format == wgpu::TextureFormat::Bgra8Unorm {
+                            got.chunks_mut(4).for_each(|p| p.swap(0, 2));
+                        }
+                        let want = transform(mode, View::Stereo, frame.clone());
+                        for (i, g) in got.chunks(4).enumerate() {
+                            let (x, y) = (i as u32 % size.0, i as u32 / size.0);
+                            // Sharp: the image pixel under the pixel, within 1 code. Filtered:
+                            // also the weights' precision (the rasterizer's 1/256 pixel puts the
+                            // position up to 1/256 texel off, moving the mix by as much of the
+                            // range of the four pixels mixed).
+                            let (w, tolerance): ([f64; 3], [f64; 3]) = if filter == nearest {
+                                let s = size.0 / eye;
+                                let p = want.get(x / s, y / s);
+                                (std::array::from_fn(|c| f64::from(p[c])), [1.0; 3])
+                            } else {
+                                let (w, range) = bilinear(&want, size, (x, y), format.is_srgb());
+                                (w, range.map(|r| 1.0 + r / 256.0))
+                            };
+                            for c in 0..3 {
+                                let d = (f64::from(g[c]) - w[c]).abs();
+                                assert!(
+                                    d <= tolerance[c],
+                                    "{mode} {format:?} {filter:?} at {size:?}: pixel ({x},{y}) channel {c}: GPU {} vs CPU {} (tolerance {})",
+                                    g[c],
+                                    w[c],
+                                    tolerance[c]
+                                );
+                                exact += usize::from(f64::from(g[c]) == w[c].round());
+                                beyond_one += usize::from(d > 1.0);
+                                channels += 1;
+                            }
+                            assert_eq!(g[3], 255, "{mode} {format:?} ({x},{y}) alpha");
+                        }
+                    }
+                    eprintln!(
+                        "{mode} {format:?} {filter:?} {size:?}: {exact} of {channels} channels equal, {beyond_one} more than 1 code off"
+                    );
+                    // At most one channel in a thousand is off by more than a code.
+                    assert!(beyond_one * 1000 <= channels, "{mode} {format:?} {filter:?}: {beyond_one} of {channels}");
+                    // An sRGB target's own encoding is an approximation (as for the anaglyph).
+                    let share = if format.is_srgb() { 0.9 } else { 0.99 };
+                    assert!(
+                        exact as f64 > share * channels as f64,
+                        "{mode} {format:?} {filter:?}: {exact} of {channels}"
+                    );
+                    // Row-interleaving only moves codes: drawn sharp into a target that stores
+                    // codes, every byte is the CPU's.
+                    if mode == DisplayMode::RowInterleaved && filter == nearest && !format.is_srgb() {
+                        assert_eq!(exact, channels, "{format:?} {size:?}");
+                    }
+                }
+            }
+        }
     }
 }

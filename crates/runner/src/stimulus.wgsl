@@ -1,6 +1,7 @@
 // Draws a stimulus frame into a rectangle of the window (the viewport): a frame shown as it
-// is (`fs_copy`), or the Dubois red-cyan anaglyph of a side-by-side stereo frame, composed
-// here at draw time (`fs_anaglyph_*`).
+// is (`fs_copy`), the Dubois red-cyan anaglyph of a side-by-side stereo frame (`fs_anaglyph_*`),
+// or the squeezed and row-interleaved images of one (`fs_compose`), all composed here at draw
+// time.
 //
 // The anaglyph is the GPU twin of `display::anaglyph_with` (crates/runner/src/display.rs):
 // the same matrices (substituted from Rust by `gpu.rs`) and the same order of sums, in linear
@@ -11,6 +12,21 @@
 // integer scale with a nearest sampler each output pixel comes from one texel pair, as on
 // the CPU; with a filtering sampler (a scale that is not an integer) each eye's codes are
 // filtered before the composition, where the CPU path's image was filtered after it.
+//
+// `fs_compose` is the GPU twin of `display::transform` for `sbs-half`, `top-bottom` and
+// `row-interleaved` (MODE below). It computes the pixel of the CPU's display image (the size
+// of one eye) at a given position exactly as the CPU does, rounded to a code: the squeezes
+// average two source pixels in linear light (alpha: the mean rounded up), a column or row an
+// odd size leaves over is opaque black, and row-interleaving takes image row y from the left
+// eye when y is even, from the right when odd. Image rows, not screen rows: at scale 2 each
+// image row covers two screen rows, as the CPU image drawn by `fs_copy` does. The position of
+// a screen pixel maps to the image as the copy of the CPU image maps it: with a nearest
+// sampler (FILTERED false) the image pixel under the pixel's centre; with a filtering one
+// (FILTERED true) the bilinear mix (clamped at the edges) of the four image pixels around it,
+// of their codes for targets that store the codes given, of their linear values for sRGB
+// targets (SRGB_TARGET), as a filtering sampler mixes the copy's texels through the view
+// `gpu.rs` binds for each target. So the composition is exact at every scale; only the
+// weights' precision differs from the texture unit's.
 
 @group(0) @binding(0) var image: texture_2d<f32>;
 @group(0) @binding(1) var image_sampler: sampler;
@@ -77,4 +93,85 @@ fn fs_anaglyph_encode(in: VertexOutput) -> @location(0) vec4<f32> {
     let c = select(higher, l * 12.92, l <= vec3<f32>(0.0031308));
     // Rounded to a code here, so the target's conversion keeps it.
     return vec4<f32>(floor(c * 255.0 + 0.5) / 255.0, 1.0);
+}
+
+// Which composition `fs_compose` draws: 1 sbs-half, 2 top-bottom, 3 row-interleaved.
+override MODE: u32 = 1u;
+// Whether the frame is drawn with a filtering sampler (bilinear), or a nearest one.
+override FILTERED: bool = false;
+// Whether the target is sRGB (it encodes linear values) or stores the codes given.
+override SRGB_TARGET: bool = false;
+
+fn encode(l: vec3<f32>) -> vec3<f32> {
+    let v = clamp(l, vec3<f32>(0.0), vec3<f32>(1.0));
+    let higher = 1.055 * pow(v, vec3<f32>(1.0 / 2.4)) - 0.055;
+    let c = select(higher, v * 12.92, v <= vec3<f32>(0.0031308));
+    return floor(c * 255.0 + 0.5) / 255.0;
+}
+
+// Texel (x, y) of the left (eye 0) or right (eye 1) eye, as codes / 255.
+fn eye_texel(eye: i32, x: i32, y: i32) -> vec4<f32> {
+    let eye_w = i32(textureDimensions(image, 0).x) / 2;
+    return textureLoad(image, vec2<i32>(eye * eye_w + x, y), 0);
+}
+
+// `display::average`: two pixels averaged in linear light, as codes / 255.
+fn average(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
+    let rgb = encode((linear(a.rgb) + linear(b.rgb)) * 0.5);
+    let alpha = floor((round(a.a * 255.0) + round(b.a * 255.0) + 1.0) / 2.0) / 255.0;
+    return vec4<f32>(rgb, alpha);
+}
+
+// The size of the display image: one eye's width, the frame's height.
+fn out_size() -> vec2<i32> {
+    let d = vec2<i32>(textureDimensions(image, 0));
+    return vec2<i32>(d.x / 2, d.y);
+}
+
+// Pixel `o` of the CPU's display image (as codes / 255).
+fn composed(o: vec2<i32>) -> vec4<f32> {
+    let size = out_size();
+    if MODE == 3u {
+        return eye_texel(o.y & 1, o.x, o.y);
+    }
+    let black = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    if MODE == 1u {
+        let half = size.x / 2;
+        if o.x >= 2 * half {
+            return black;
+        }
+        let eye = select(0, 1, o.x >= half);
+        let x = 2 * (o.x - eye * half);
+        return average(eye_texel(eye, x, o.y), eye_texel(eye, x + 1, o.y));
+    }
+    let half = size.y / 2;
+    if o.y >= 2 * half {
+        return black;
+    }
+    let eye = select(0, 1, o.y >= half);
+    let y = 2 * (o.y - eye * half);
+    return average(eye_texel(eye, o.x, y), eye_texel(eye, o.x, y + 1));
+}
+
+// A composed pixel in the space the target is given: codes, or linear light for sRGB targets.
+fn target_value(o: vec2<i32>) -> vec4<f32> {
+    let c = composed(clamp(o, vec2<i32>(0), out_size() - 1));
+    if SRGB_TARGET {
+        return vec4<f32>(linear(c.rgb), c.a);
+    }
+    return c;
+}
+
+@fragment
+fn fs_compose(in: VertexOutput) -> @location(0) vec4<f32> {
+    let size = vec2<f32>(out_size());
+    if !FILTERED {
+        return target_value(vec2<i32>(floor(in.uv * size)));
+    }
+    let p = in.uv * size - 0.5;
+    let i = vec2<i32>(floor(p));
+    let f = p - floor(p);
+    let top = mix(target_value(i), target_value(i + vec2<i32>(1, 0)), f.x);
+    let bottom = mix(target_value(i + vec2<i32>(0, 1)), target_value(i + vec2<i32>(1, 1)), f.x);
+    return mix(top, bottom, f.y);
 }
