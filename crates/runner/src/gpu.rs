@@ -2,10 +2,12 @@
 //! holding sRGB codes (the format egui-wgpu samples, with an sRGB view format), and drawn into
 //! the window by a paint callback with a pipeline of its own ([`StimulusPipelines`],
 //! `stimulus.wgsl`): an opaque copy of the display image, or, for the stereo modes that
-//! transform the frame (red-cyan anaglyph, side by side at half width, top-bottom,
-//! row-interleaved), the composition of the side-by-side frame at draw time. Those modes are
-//! thus never computed on the CPU in the window; their CPU twin is
-//! [`crate::display::transform`], and tests render both and compare them.
+//! compute new pixels (red-cyan anaglyph, side by side at half width, top-bottom), the
+//! composition of the side-by-side frame at draw time. Those modes are thus never computed on
+//! the CPU in the window; their CPU twin is [`crate::display::transform`], and tests render
+//! both and compare them. The modes that only select pixels (`mono`: the left eye;
+//! `row-interleaved`: rows from either eye) stay on the CPU, where the selection costs less
+//! than uploading the whole frame would (measured in BENCHMARKS.md, Runner).
 //!
 //! The window uploads with a [`FrameUploader`] on its loader thread with eframe's device;
 //! `blurlab bench playback` uses the same uploader on a headless device ([`headless_device`]),
@@ -21,14 +23,11 @@ use crate::display::{DUBOIS_LEFT, DUBOIS_RIGHT};
 use crate::stimuli::Decoded;
 
 /// Whether frames of `view` shown in `mode` are composed on the GPU when drawn: the stereo
-/// modes that transform the frame, except `mono` (the left eye, a crop the CPU does while
-/// decoding; it halves what is uploaded).
+/// modes that compute new pixels (anaglyph, sbs-half, top-bottom). `mono` (the left eye) and
+/// `row-interleaved` only select half of the frame's pixels: the CPU does that while decoding
+/// for less than uploading the other half costs.
 pub fn composes_on_gpu(mode: DisplayMode, view: View) -> bool {
-    view == View::Stereo
-        && matches!(
-            mode,
-            DisplayMode::Anaglyph | DisplayMode::SbsHalf | DisplayMode::TopBottom | DisplayMode::RowInterleaved
-        )
+    view == View::Stereo && matches!(mode, DisplayMode::Anaglyph | DisplayMode::SbsHalf | DisplayMode::TopBottom)
 }
 
 /// A device without a window (benchmarks and tests): the default adapter, which on machines
@@ -68,14 +67,12 @@ pub enum Draw {
     /// The texture is a side-by-side stereo frame; the eyes are drawn top and bottom, each
     /// squeezed to half height.
     TopBottom,
-    /// The texture is a side-by-side stereo frame; its rows are drawn interleaved.
-    RowInterleaved,
 }
 
 impl Draw {
     /// The compositions of `fs_compose` in `stimulus.wgsl`, in the order of its `MODE`
-    /// constant (1, 2, 3).
-    const COMPOSED: [Draw; 3] = [Draw::SbsHalf, Draw::TopBottom, Draw::RowInterleaved];
+    /// constant (1, 2).
+    const COMPOSED: [Draw; 2] = [Draw::SbsHalf, Draw::TopBottom];
 }
 
 impl Draw {
@@ -86,7 +83,6 @@ impl Draw {
             Some(DisplayMode::Anaglyph) => Ok(Draw::Anaglyph),
             Some(DisplayMode::SbsHalf) => Ok(Draw::SbsHalf),
             Some(DisplayMode::TopBottom) => Ok(Draw::TopBottom),
-            Some(DisplayMode::RowInterleaved) => Ok(Draw::RowInterleaved),
             Some(other) => Err(RunnerError::Input {
                 what: format!("stimulus {}", decoded.id),
                 message: format!("display mode {other} is not composed on the GPU"),
@@ -101,7 +97,7 @@ pub struct StimulusPipelines {
     copy: wgpu::RenderPipeline,
     anaglyph: wgpu::RenderPipeline,
     /// `fs_compose` per [`Draw::COMPOSED`] mode, with a nearest sampler and with a filtering one.
-    composed: [[wgpu::RenderPipeline; 2]; 3],
+    composed: [[wgpu::RenderPipeline; 2]; 2],
     layout: wgpu::BindGroupLayout,
     nearest: wgpu::Sampler,
     linear: wgpu::Sampler,
@@ -221,7 +217,7 @@ impl StimulusPipelines {
         pass.set_pipeline(match draw {
             Draw::Copy => &self.copy,
             Draw::Anaglyph => &self.anaglyph,
-            Draw::SbsHalf | Draw::TopBottom | Draw::RowInterleaved => {
+            Draw::SbsHalf | Draw::TopBottom => {
                 let mode = Draw::COMPOSED.iter().position(|d| *d == draw).expect("a composed mode");
                 &self.composed[mode][usize::from(filter != wgpu::FilterMode::Nearest)]
             }
@@ -556,8 +552,8 @@ mod tests {
             }
         }
         // A mode the GPU does not compose is refused with a message.
-        let e = gpu.upload(&decoded(&frames, Some(DisplayMode::SbsFull))).unwrap_err().to_string();
-        assert!(e.contains("sbs-full is not composed on the GPU"), "{e}");
+        let e = gpu.upload(&decoded(&frames, Some(DisplayMode::RowInterleaved))).unwrap_err().to_string();
+        assert!(e.contains("row-interleaved is not composed on the GPU"), "{e}");
     }
 
     /// The window's CPU path at a scale that is not an integer: the display image drawn with a
@@ -598,7 +594,7 @@ mod tests {
         let (eye, h) = (101, 37);
         let frames = stereo_frames(eye, h, 2, 5);
         let (nearest, linear) = (wgpu::FilterMode::Nearest, wgpu::FilterMode::Linear);
-        for mode in [DisplayMode::SbsHalf, DisplayMode::TopBottom, DisplayMode::RowInterleaved] {
+        for mode in [DisplayMode::SbsHalf, DisplayMode::TopBottom] {
             let decoded = decoded(&frames, Some(mode));
             let draw = Draw::of(&decoded).unwrap();
             let textures = gpu.upload(&decoded).unwrap();
@@ -664,11 +660,6 @@ mod tests {
                         exact as f64 > share * channels as f64,
                         "{mode} {format:?} {filter:?}: {exact} of {channels}"
                     );
-                    // Row-interleaving only moves codes: drawn sharp into a target that stores
-                    // codes, every byte is the CPU's.
-                    if mode == DisplayMode::RowInterleaved && filter == nearest && !format.is_srgb() {
-                        assert_eq!(exact, channels, "{format:?} {size:?}");
-                    }
                 }
             }
         }

@@ -1,6 +1,6 @@
 // Draws a stimulus frame into a rectangle of the window (the viewport): a frame shown as it
 // is (`fs_copy`), the Dubois red-cyan anaglyph of a side-by-side stereo frame (`fs_anaglyph_*`),
-// or the squeezed and row-interleaved images of one (`fs_compose`), all composed here at draw
+// or its eyes squeezed side by side or top and bottom (`fs_compose`), composed here at draw
 // time.
 //
 // The anaglyph is the GPU twin of `display::anaglyph_with` (crates/runner/src/display.rs):
@@ -13,20 +13,18 @@
 // the CPU; with a filtering sampler (a scale that is not an integer) each eye's codes are
 // filtered before the composition, where the CPU path's image was filtered after it.
 //
-// `fs_compose` is the GPU twin of `display::transform` for `sbs-half`, `top-bottom` and
-// `row-interleaved` (MODE below). It computes the pixel of the CPU's display image (the size
-// of one eye) at a given position exactly as the CPU does, rounded to a code: the squeezes
-// average two source pixels in linear light (alpha: the mean rounded up), a column or row an
-// odd size leaves over is opaque black, and row-interleaving takes image row y from the left
-// eye when y is even, from the right when odd. Image rows, not screen rows: at scale 2 each
-// image row covers two screen rows, as the CPU image drawn by `fs_copy` does. The position of
-// a screen pixel maps to the image as the copy of the CPU image maps it: with a nearest
-// sampler (FILTERED false) the image pixel under the pixel's centre; with a filtering one
-// (FILTERED true) the bilinear mix (clamped at the edges) of the four image pixels around it,
-// of their codes for targets that store the codes given, of their linear values for sRGB
+// `fs_compose` is the GPU twin of `display::transform` for `sbs-half` and `top-bottom` (MODE
+// below). It computes the pixel of the CPU's display image (the size of one eye) at a given
+// position exactly as the CPU does, rounded to a code: two source pixels averaged in linear
+// light (alpha: the mean rounded up), and opaque black in a column or row an odd size leaves
+// over. A screen pixel's position maps to the image as in the copy of the CPU's image: with a
+// nearest sampler (FILTERED false) the image pixel under the pixel's centre; with a filtering
+// one (FILTERED true) the bilinear mix (clamped at the edges) of the four image pixels around
+// it, of their codes for targets that store the codes given, of their linear values for sRGB
 // targets (SRGB_TARGET), as a filtering sampler mixes the copy's texels through the view
 // `gpu.rs` binds for each target. So the composition is exact at every scale; only the
-// weights' precision differs from the texture unit's.
+// weights' precision differs from the texture unit's. (`row-interleaved` only selects rows:
+// the CPU does it, see `gpu::composes_on_gpu`.)
 
 @group(0) @binding(0) var image: texture_2d<f32>;
 @group(0) @binding(1) var image_sampler: sampler;
@@ -95,7 +93,7 @@ fn fs_anaglyph_encode(in: VertexOutput) -> @location(0) vec4<f32> {
     return vec4<f32>(floor(c * 255.0 + 0.5) / 255.0, 1.0);
 }
 
-// Which composition `fs_compose` draws: 1 sbs-half, 2 top-bottom, 3 row-interleaved.
+// Which composition `fs_compose` draws: 1 sbs-half, 2 top-bottom.
 override MODE: u32 = 1u;
 // Whether the frame is drawn with a filtering sampler (bilinear), or a nearest one.
 override FILTERED: bool = false;
@@ -131,9 +129,6 @@ fn out_size() -> vec2<i32> {
 // Pixel `o` of the CPU's display image (as codes / 255).
 fn composed(o: vec2<i32>) -> vec4<f32> {
     let size = out_size();
-    if MODE == 3u {
-        return eye_texel(o.y & 1, o.x, o.y);
-    }
     let black = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     if MODE == 1u {
         let half = size.x / 2;
