@@ -116,6 +116,11 @@ impl PathTracer<'_> {
             if bounce == self.max_bounces {
                 break;
             }
+            // Both of this vertex's sample values are drawn before any shading: they depend
+            // only on the sample index, so their hash chains overlap the shading work.
+            let base = dim::BOUNCE_BASE + bounce * dim::PER_BOUNCE;
+            let u_light = sampler.get_2d(base + dim::LIGHT);
+            let u_bsdf = sampler.get_2d(base + dim::BSDF);
             // Shade the side the ray arrives on. Leaving a plane, or a sphere on its
             // outside, never meets that surface again; leaving the inside of a sphere can.
             let mut leave_skip = Some(hit.surface);
@@ -127,9 +132,8 @@ impl PathTracer<'_> {
             }
             let footprint = cone_width + hit.t * spread;
             let albedo = self.albedo(&hit, sphere, footprint, &ray);
-            let base = dim::BOUNCE_BASE + bounce * dim::PER_BOUNCE;
             // Light sampling: one direction from the map, with a shadow ray.
-            if let Some(s) = self.env.sample(sampler.get_2d(base + dim::LIGHT)) {
+            if let Some(s) = self.env.sample(u_light) {
                 let cos = hit.normal.dot(s.direction);
                 if cos > 0.0 {
                     let shadow = spawn_ray(&hit, s.direction);
@@ -144,7 +148,7 @@ impl PathTracer<'_> {
                 }
             }
             // BSDF sampling: continues the path; f cos / pdf = albedo.
-            let (wi, pdf) = cosine_sample(hit.normal, sampler.get_2d(base + dim::BSDF));
+            let (wi, pdf) = cosine_sample(hit.normal, u_bsdf);
             if pdf <= 0.0 {
                 break;
             }
