@@ -4,9 +4,18 @@
 //! `mono` (a mono frame unchanged; the left eye of a stereo frame), `sbs-full` (unchanged),
 //! `sbs-half` (each eye squeezed to `W/2`, for 3D displays in side-by-side mode),
 //! `top-bottom` (left eye above the right, each squeezed to `H/2`), `anaglyph` (red-cyan with
-//! Dubois's least-squares matrices, applied in linear light) and `row-interleaved` (even
-//! rows, counted from 0 at the top, from the left eye; odd rows from the right eye, for
-//! passive polarised monitors whose first line is polarised for the left eye).
+//! Dubois's least-squares matrices, applied in linear light) and `row-interleaved` (for
+//! passive polarised monitors whose first line is polarised for the left eye: even *screen
+//! lines*, physical pixel rows counted from 0 at the top of the window's framebuffer, show the
+//! left eye, odd ones the right eye; [`line_eye`]).
+//!
+//! Row-interleaving depends on where the image lands: at scale 2 every image row covers two
+//! screen lines, and at scale 1 an image whose top is on an odd line would swap the eyes. The
+//! window composes it on the GPU by screen line ([`crate::gpu`]); its twin is
+//! [`row_interleave_on_screen`] (the screen image for a given top line and drawn size).
+//! [`transform`] interleaves image rows (even rows from the left eye), which is the same thing
+//! on screen only at one screen pixel per image pixel with the image's top on an even line:
+//! the CPU fallback draws it only so, and warns otherwise.
 //!
 //! Squeezing averages adjacent pixel pairs in linear light, so a squeezed frame has the
 //! mean luminance of the original.
@@ -204,6 +213,7 @@ pub fn transform(mode: DisplayMode, view: View, frame: Rgba8) -> Rgba8 {
             }
         }
         DisplayMode::RowInterleaved => {
+            // Image rows: right on screen only at scale 1 with the top on an even line.
             for (y, o) in out.pixels.chunks_exact_mut(eye_bytes).enumerate() {
                 let (l, r) = eyes(y);
                 o.copy_from_slice(if y % 2 == 0 { l } else { r });
@@ -245,6 +255,30 @@ pub fn transform(mode: DisplayMode, view: View, frame: Rgba8) -> Rgba8 {
                     average(t, a, b, o);
                 }
             }
+        }
+    }
+    out
+}
+
+/// The eye a screen line shows in `row-interleaved`: 0 (left) for even lines, 1 (right) for
+/// odd ones, lines counted in physical pixels from 0 at the top of the framebuffer.
+pub fn line_eye(screen_line: u32) -> usize {
+    (screen_line % 2) as usize
+}
+
+/// The screen image of a side-by-side stereo `frame` (`2W x H`) in `row-interleaved`, drawn
+/// at `size` screen pixels (`w x h`, any scale) with a nearest sampler, its top on screen
+/// line `top_line`: pixel (x, y) is pixel (floor((x + 1/2) W / w), floor((y + 1/2) H / h)) of
+/// the eye of line `top_line + y` ([`line_eye`]), the image pixel under the screen pixel's
+/// centre. The CPU twin of the GPU's composition (`fs_compose` in `stimulus.wgsl`).
+pub fn row_interleave_on_screen(frame: &Rgba8, (w, h): (u32, u32), top_line: u32) -> Rgba8 {
+    let eye_w = u64::from(frame.width / 2);
+    let src = |i: u32, n: u32, image: u64| ((2 * u64::from(i) + 1) * image / (2 * u64::from(n))) as u32;
+    let mut out = Rgba8::filled(w, h, [0, 0, 0, 255]);
+    for y in 0..h {
+        let (sy, eye) = (src(y, h, u64::from(frame.height)), line_eye(top_line + y) as u32);
+        for x in 0..w {
+            out.set(x, y, frame.get(eye * eye_w as u32 + src(x, w, eye_w), sy));
         }
     }
     out
@@ -315,6 +349,39 @@ mod tests {
                 assert_eq!(out.get(x, y), if y % 2 == 0 { l } else { r }, "({x},{y})");
             }
         }
+    }
+
+    #[test]
+    fn row_interleave_on_screen_takes_each_line_from_its_eye() {
+        // Each pixel codes its eye, column and row, so every lookup can be checked.
+        let (eye, h) = (5u32, 3u32);
+        let mut f = Rgba8::filled(2 * eye, h, [0, 0, 0, 255]);
+        for y in 0..h {
+            for x in 0..2 * eye {
+                f.set(x, y, [(x / eye) as u8, (x % eye) as u8, y as u8, 255]);
+            }
+        }
+        for top in [0u32, 1, 2, 7] {
+            for s in [1u32, 2, 3] {
+                let out = row_interleave_on_screen(&f, (s * eye, s * h), top);
+                for y in 0..s * h {
+                    for x in 0..s * eye {
+                        let want = [((top + y) % 2) as u8, (x / s) as u8, (y / s) as u8, 255];
+                        assert_eq!(out.get(x, y), want, "top {top} scale {s} ({x},{y})");
+                    }
+                }
+            }
+        }
+        // At scale 1 with the top on an even line it is the image-row interleave.
+        let cpu = transform(DisplayMode::RowInterleaved, View::Stereo, f.clone());
+        assert_eq!(row_interleave_on_screen(&f, (eye, h), 4), cpu);
+        assert_ne!(row_interleave_on_screen(&f, (eye, h), 3), cpu);
+        // A scale of 1.5: pixel centres map to the image pixel under them.
+        let out = row_interleave_on_screen(&f, (7, 4), 1);
+        assert_eq!(out.get(6, 3), [0, 4, 2, 255]);
+        assert_eq!(out.get(1, 0), [1, 1, 0, 255]);
+        assert_eq!(out.get(2, 1), [0, 1, 1, 255]);
+        assert_eq!(out.get(0, 2), [1, 0, 1, 255]);
     }
 
     #[test]

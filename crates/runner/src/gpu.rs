@@ -2,12 +2,18 @@
 //! holding sRGB codes (the format egui-wgpu samples, with an sRGB view format), and drawn into
 //! the window by a paint callback with a pipeline of its own ([`StimulusPipelines`],
 //! `stimulus.wgsl`): an opaque copy of the display image, or, for the stereo modes that
-//! compute new pixels (red-cyan anaglyph, side by side at half width, top-bottom), the
-//! composition of the side-by-side frame at draw time. Those modes are thus never computed on
-//! the CPU in the window; their CPU twin is [`crate::display::transform`], and tests render
-//! both and compare them. The modes that only select pixels (`mono`: the left eye;
-//! `row-interleaved`: rows from either eye) stay on the CPU, where the selection costs less
-//! than uploading the whole frame would (measured in BENCHMARKS.md, Runner).
+//! compute new pixels (red-cyan anaglyph, side by side at half width, top-bottom) or depend
+//! on where the pixels land on the screen (row-interleaved), the composition of the
+//! side-by-side frame at draw time. Those modes are thus never computed on the CPU in the
+//! window; their CPU twins are [`crate::display::transform`] and, for row-interleaving,
+//! [`crate::display::row_interleave_on_screen`] (the eye of each screen line), and tests
+//! render both and compare them. `mono` (the left eye, a crop) stays on the CPU.
+//!
+//! Row-interleaving on the GPU picks the eye by the fragment's framebuffer row (physical
+//! pixels from the top of the window's framebuffer: even lines left, odd right), so it is
+//! right at any scale and any position of the stimulus. The window's top line must be the
+//! monitor's first (left-eye) line or another even one: run full screen on a passive
+//! polarised monitor.
 //!
 //! The window uploads with a [`FrameUploader`] on its loader thread with eframe's device;
 //! `blurlab bench playback` uses the same uploader on a headless device ([`headless_device`]),
@@ -23,11 +29,16 @@ use crate::display::{DUBOIS_LEFT, DUBOIS_RIGHT};
 use crate::stimuli::Decoded;
 
 /// Whether frames of `view` shown in `mode` are composed on the GPU when drawn: the stereo
-/// modes that compute new pixels (anaglyph, sbs-half, top-bottom). `mono` (the left eye) and
-/// `row-interleaved` only select half of the frame's pixels: the CPU does that while decoding
-/// for less than uploading the other half costs.
+/// modes that compute new pixels (anaglyph, sbs-half, top-bottom) and row-interleaving,
+/// whose eye per pixel depends on the screen line it lands on (known only when drawn). `mono`
+/// (the left eye) is a crop the CPU does while decoding for less than uploading the other
+/// half costs.
 pub fn composes_on_gpu(mode: DisplayMode, view: View) -> bool {
-    view == View::Stereo && matches!(mode, DisplayMode::Anaglyph | DisplayMode::SbsHalf | DisplayMode::TopBottom)
+    view == View::Stereo
+        && matches!(
+            mode,
+            DisplayMode::Anaglyph | DisplayMode::SbsHalf | DisplayMode::TopBottom | DisplayMode::RowInterleaved
+        )
 }
 
 /// A device without a window (benchmarks and tests): the default adapter, which on machines
@@ -67,12 +78,15 @@ pub enum Draw {
     /// The texture is a side-by-side stereo frame; the eyes are drawn top and bottom, each
     /// squeezed to half height.
     TopBottom,
+    /// The texture is a side-by-side stereo frame; each screen line shows one eye, chosen by
+    /// the line's parity in the framebuffer (even: left), scaled to the drawn size.
+    RowInterleaved,
 }
 
 impl Draw {
     /// The compositions of `fs_compose` in `stimulus.wgsl`, in the order of its `MODE`
-    /// constant (1, 2).
-    const COMPOSED: [Draw; 2] = [Draw::SbsHalf, Draw::TopBottom];
+    /// constant (1, 2, 3).
+    const COMPOSED: [Draw; 3] = [Draw::SbsHalf, Draw::TopBottom, Draw::RowInterleaved];
 }
 
 impl Draw {
@@ -83,6 +97,7 @@ impl Draw {
             Some(DisplayMode::Anaglyph) => Ok(Draw::Anaglyph),
             Some(DisplayMode::SbsHalf) => Ok(Draw::SbsHalf),
             Some(DisplayMode::TopBottom) => Ok(Draw::TopBottom),
+            Some(DisplayMode::RowInterleaved) => Ok(Draw::RowInterleaved),
             Some(other) => Err(RunnerError::Input {
                 what: format!("stimulus {}", decoded.id),
                 message: format!("display mode {other} is not composed on the GPU"),
@@ -97,7 +112,7 @@ pub struct StimulusPipelines {
     copy: wgpu::RenderPipeline,
     anaglyph: wgpu::RenderPipeline,
     /// `fs_compose` per [`Draw::COMPOSED`] mode, with a nearest sampler and with a filtering one.
-    composed: [[wgpu::RenderPipeline; 2]; 2],
+    composed: [[wgpu::RenderPipeline; 2]; 3],
     layout: wgpu::BindGroupLayout,
     nearest: wgpu::Sampler,
     linear: wgpu::Sampler,
@@ -217,7 +232,7 @@ impl StimulusPipelines {
         pass.set_pipeline(match draw {
             Draw::Copy => &self.copy,
             Draw::Anaglyph => &self.anaglyph,
-            Draw::SbsHalf | Draw::TopBottom => {
+            Draw::SbsHalf | Draw::TopBottom | Draw::RowInterleaved => {
                 let mode = Draw::COMPOSED.iter().position(|d| *d == draw).expect("a composed mode");
                 &self.composed[mode][usize::from(filter != wgpu::FilterMode::Nearest)]
             }
@@ -226,8 +241,11 @@ impl StimulusPipelines {
         pass.draw(0..3, 0..1);
     }
 
-    /// Draws a frame into a new texture of `width x height` in the pipelines' format and
-    /// reads it back as tightly packed RGBA8 rows (tests and checks).
+    /// Draws a frame into a new texture of `width x height` in the pipelines' format, cleared
+    /// to opaque black, over its viewport `[x, y, w, h]` (pixels, as egui-wgpu sets it for a
+    /// paint callback; `None`: the whole texture), and reads the whole texture back as
+    /// tightly packed RGBA8 rows (tests and checks).
+    #[allow(clippy::too_many_arguments)]
     pub fn render(
         &self,
         gpu: &FrameUploader,
@@ -236,7 +254,16 @@ impl StimulusPipelines {
         filter: wgpu::FilterMode,
         format: wgpu::TextureFormat,
         (width, height): (u32, u32),
+        viewport: Option<[u32; 4]>,
     ) -> Result<Vec<u8>, RunnerError> {
+        let viewport = viewport.unwrap_or([0, 0, width, height]);
+        let [vx, vy, vw, vh] = viewport;
+        if vw == 0 || vh == 0 || vx + vw > width || vy + vh > height {
+            return Err(RunnerError::Input {
+                what: "stimulus render".into(),
+                message: format!("viewport {viewport:?} is empty or outside the {width}x{height} target"),
+            });
+        }
         let target = gpu.device().create_texture(&wgpu::TextureDescriptor {
             label: Some("stimulus render"),
             size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
@@ -266,6 +293,7 @@ impl StimulusPipelines {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
+            pass.set_viewport(vx as f32, vy as f32, vw as f32, vh as f32, 0.0, 1.0);
             self.draw(&mut pass, bind, draw, filter);
         }
         gpu.queue().submit([encoder.finish()]);
@@ -423,7 +451,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     use super::*;
-    use crate::display::{Rgba8, linear_to_srgb, srgb_to_linear, transform};
+    use crate::display::{Rgba8, line_eye, linear_to_srgb, row_interleave_on_screen, srgb_to_linear, transform};
 
     fn require_gpu() -> bool {
         std::env::var("BLURLAB_REQUIRE_GPU").is_ok_and(|v| v == "1")
@@ -442,6 +470,32 @@ mod tests {
             }
             Err(e) => panic!("BLURLAB_REQUIRE_GPU=1 but {e}"),
         }
+    }
+
+    /// The target formats the twin tests draw into: two that store the codes given (egui's
+    /// gamma framebuffers), one that encodes linear values (sRGB).
+    const FORMATS: [wgpu::TextureFormat; 3] =
+        [wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Bgra8Unorm, wgpu::TextureFormat::Rgba8UnormSrgb];
+
+    /// The filters and drawn sizes the twin tests draw eyes of `eye x h` at: integer scales 1,
+    /// 2 and 3 with a nearest sampler (each image pixel becomes s x s pixels), and 1.5 with a
+    /// filtering one.
+    fn drawn_sizes(eye: u32, h: u32) -> [(wgpu::FilterMode, (u32, u32)); 4] {
+        let (nearest, linear) = (wgpu::FilterMode::Nearest, wgpu::FilterMode::Linear);
+        [
+            (nearest, (eye, h)),
+            (nearest, (2 * eye, 2 * h)),
+            (nearest, (3 * eye, 3 * h)),
+            (linear, (3 * eye / 2, 3 * h / 2)),
+        ]
+    }
+
+    /// Pixels read back from a target of `format` as RGBA (a BGRA target's channels swapped).
+    fn rgba(mut pixels: Vec<u8>, format: wgpu::TextureFormat) -> Vec<u8> {
+        if format == wgpu::TextureFormat::Bgra8Unorm {
+            pixels.chunks_mut(4).for_each(|p| p.swap(0, 2));
+        }
+        pixels
     }
 
     /// Stereo frames of `eye x h` per eye: random pixels, with greys and primaries (where
@@ -491,18 +545,16 @@ mod tests {
         assert_eq!(textures.len(), frames.len());
         assert_eq!((textures[0].width(), textures[0].height()), (2 * eye, h));
         // Both ways out: encoded by the shader (egui's gamma framebuffers) and by the target.
-        for format in
-            [wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Bgra8Unorm, wgpu::TextureFormat::Rgba8UnormSrgb]
-        {
+        for format in FORMATS {
             let pipelines = StimulusPipelines::new(gpu.device(), format);
             let (mut channels, mut exact) = (0usize, 0usize);
             for (frame, texture) in frames.iter().zip(&textures) {
                 let bind = pipelines.bind(gpu.device(), texture, Draw::Anaglyph, wgpu::FilterMode::Nearest);
                 let nearest = wgpu::FilterMode::Nearest;
-                let mut got = pipelines.render(&gpu, &bind, Draw::Anaglyph, nearest, format, (eye, h)).unwrap();
-                if format == wgpu::TextureFormat::Bgra8Unorm {
-                    got.chunks_mut(4).for_each(|p| p.swap(0, 2));
-                }
+                let got = rgba(
+                    pipelines.render(&gpu, &bind, Draw::Anaglyph, nearest, format, (eye, h), None).unwrap(),
+                    format,
+                );
                 let want = transform(DisplayMode::Anaglyph, View::Stereo, frame.clone());
                 for (i, (g, w)) in got.chunks(4).zip(want.pixels.chunks(4)).enumerate() {
                     let (x, y) = (i as u32 % eye, i as u32 / eye);
@@ -542,7 +594,7 @@ mod tests {
                 // Drawn at twice the size with a nearest sampler: each texel becomes 2x2 pixels.
                 let bind = pipelines.bind(gpu.device(), texture, Draw::Copy, wgpu::FilterMode::Nearest);
                 let nearest = wgpu::FilterMode::Nearest;
-                let got = pipelines.render(&gpu, &bind, Draw::Copy, nearest, format, (28, 10)).unwrap();
+                let got = pipelines.render(&gpu, &bind, Draw::Copy, nearest, format, (28, 10), None).unwrap();
                 for y in 0..10u32 {
                     for x in 0..28u32 {
                         let i = 4 * (y * 28 + x) as usize;
@@ -552,8 +604,8 @@ mod tests {
             }
         }
         // A mode the GPU does not compose is refused with a message.
-        let e = gpu.upload(&decoded(&frames, Some(DisplayMode::RowInterleaved))).unwrap_err().to_string();
-        assert!(e.contains("row-interleaved is not composed on the GPU"), "{e}");
+        let e = gpu.upload(&decoded(&frames, Some(DisplayMode::SbsFull))).unwrap_err().to_string();
+        assert!(e.contains("sbs-full is not composed on the GPU"), "{e}");
     }
 
     /// The window's CPU path at a scale that is not an integer: the display image drawn with a
@@ -587,66 +639,142 @@ mod tests {
         (mixed, range)
     }
 
+    /// Row-interleaving drawn into a viewport whose top is on screen line `top` (even and
+    /// odd), at scales 1, 2 and 3 (nearest) and 1.5 (filtering), against
+    /// [`row_interleave_on_screen`] (nearest) or the bilinear mix of the line's eye (filtering):
+    /// every screen line must show the eye of its parity, whatever the scale and the top.
+    #[test]
+    fn row_interleave_pipeline_takes_each_screen_line_from_its_eye() {
+        let Some(gpu) = device() else { return };
+        let (eye, h) = (101, 37);
+        let frames = stereo_frames(eye, h, 2, 9);
+        let decoded = decoded(&frames, Some(DisplayMode::RowInterleaved));
+        let draw = Draw::of(&decoded).unwrap();
+        assert_eq!(draw, Draw::RowInterleaved);
+        let textures = gpu.upload(&decoded).unwrap();
+        assert_eq!((textures[0].width(), textures[0].height()), (2 * eye, h));
+        let nearest = wgpu::FilterMode::Nearest;
+        for format in FORMATS {
+            let pipelines = StimulusPipelines::new(gpu.device(), format);
+            for (filter, size) in drawn_sizes(eye, h) {
+                for top in [0u32, 1, 2, 5] {
+                    let left = 3;
+                    let target = (size.0 + left + 2, size.1 + top + 2);
+                    let (mut channels, mut exact) = (0usize, 0usize);
+                    for (frame, texture) in frames.iter().zip(&textures) {
+                        let bind = pipelines.bind(gpu.device(), texture, draw, filter);
+                        let viewport = [left, top, size.0, size.1];
+                        let got = rgba(
+                            pipelines.render(&gpu, &bind, draw, filter, format, target, Some(viewport)).unwrap(),
+                            format,
+                        );
+                        let got = Rgba8 { width: target.0, height: target.1, pixels: got };
+                        // Nothing is drawn outside the viewport.
+                        assert_eq!(got.get(left - 1, top), [0, 0, 0, 255], "{format:?} left of the viewport");
+                        assert_eq!(got.get(left, top + size.1), [0, 0, 0, 255], "{format:?} below the viewport");
+                        let got = got.crop(left, top, size.0, size.1);
+                        let sharp = row_interleave_on_screen(frame, size, top);
+                        let eyes = [frame.crop(0, 0, eye, h), frame.crop(eye, 0, eye, h)];
+                        for y in 0..size.1 {
+                            for x in 0..size.0 {
+                                let image = if filter == nearest { &sharp } else { &eyes[line_eye(top + y)] };
+                                let (w, tolerance) = expected(image, filter, size, (x, y), format.is_srgb());
+                                let (equal, _) = compare(got.get(x, y), w, tolerance, || {
+                                    format!(
+                                        "{format:?} {filter:?} at {size:?}, top on line {top}: pixel ({x},{y}) (this line's eye {:?}, the other eye {:?} there)",
+                                        row_interleave_on_screen(frame, size, top).get(x, y),
+                                        row_interleave_on_screen(frame, size, top + 1).get(x, y),
+                                    )
+                                });
+                                exact += equal;
+                                channels += 3;
+                            }
+                        }
+                    }
+                    eprintln!("row-interleaved {format:?} {filter:?} {size:?} top {top}: {exact} of {channels} equal");
+                    // Sharp into a target that stores codes, the codes are only moved: all equal.
+                    if filter == nearest && !format.is_srgb() {
+                        assert_eq!(exact, channels, "{format:?} {size:?} top {top}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// What a twin test expects at pixel (x, y) of a render of `size` drawn from `image` with
+    /// `filter`, and the tolerance per channel. Sharp: the image pixel under the pixel's
+    /// centre, within 1 code. Filtered: the bilinear mix ([`bilinear`]) within 1 code plus the
+    /// weights' precision (the rasterizer's 1/256 pixel puts the position up to 1/256 texel
+    /// off, moving the mix by as much of the range of the four pixels mixed).
+    fn expected(
+        image: &Rgba8,
+        filter: wgpu::FilterMode,
+        size: (u32, u32),
+        (x, y): (u32, u32),
+        srgb: bool,
+    ) -> ([f64; 3], [f64; 3]) {
+        if filter == wgpu::FilterMode::Nearest {
+            let under =
+                |i: u32, n: u32, image: u32| ((2 * u64::from(i) + 1) * u64::from(image) / (2 * u64::from(n))) as u32;
+            let p = image.get(under(x, size.0, image.width), under(y, size.1, image.height));
+            (std::array::from_fn(|c| f64::from(p[c])), [1.0; 3])
+        } else {
+            let (w, range) = bilinear(image, size, (x, y), srgb);
+            (w, range.map(|r| 1.0 + r / 256.0))
+        }
+    }
+
+    /// Asserts that the GPU's pixel `g` is opaque and within `tolerance` of `w` in each colour
+    /// channel (`what` names the pixel in the message). Returns how many channels equal `w`
+    /// rounded and how many are more than 1 code off.
+    fn compare(g: [u8; 4], w: [f64; 3], tolerance: [f64; 3], what: impl Fn() -> String) -> (usize, usize) {
+        let (mut equal, mut beyond_one) = (0, 0);
+        for c in 0..3 {
+            let d = (f64::from(g[c]) - w[c]).abs();
+            assert!(
+                d <= tolerance[c],
+                "{}: channel {c}: GPU {} vs CPU {} (tolerance {})",
+                what(),
+                g[c],
+                w[c],
+                tolerance[c]
+            );
+            equal += usize::from(f64::from(g[c]) == w[c].round());
+            beyond_one += usize::from(d > 1.0);
+        }
+        assert_eq!(g[3], 255, "{}: alpha", what());
+        (equal, beyond_one)
+    }
+
     #[test]
     fn composed_pipelines_agree_with_their_cpu_twin_within_one_code() {
         let Some(gpu) = device() else { return };
         // An odd eye width and height: the squeezes leave a black last column or row.
         let (eye, h) = (101, 37);
         let frames = stereo_frames(eye, h, 2, 5);
-        let (nearest, linear) = (wgpu::FilterMode::Nearest, wgpu::FilterMode::Linear);
         for mode in [DisplayMode::SbsHalf, DisplayMode::TopBottom] {
             let decoded = decoded(&frames, Some(mode));
             let draw = Draw::of(&decoded).unwrap();
             let textures = gpu.upload(&decoded).unwrap();
             assert_eq!((textures[0].width(), textures[0].height()), (2 * eye, h));
-            for format in
-                [wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Bgra8Unorm, wgpu::TextureFormat::Rgba8UnormSrgb]
-            {
+            for format in FORMATS {
                 let pipelines = StimulusPipelines::new(gpu.device(), format);
-                // Integer scales with a nearest sampler (each image pixel becomes s x s pixels),
-                // and 1.5 with a filtering one.
-                for (filter, size) in [
-                    (nearest, (eye, h)),
-                    (nearest, (2 * eye, 2 * h)),
-                    (nearest, (3 * eye, 3 * h)),
-                    (linear, (3 * eye / 2, 3 * h / 2)),
-                ] {
+                for (filter, size) in drawn_sizes(eye, h) {
                     let (mut channels, mut exact, mut beyond_one) = (0usize, 0usize, 0usize);
                     for (frame, texture) in frames.iter().zip(&textures) {
                         let bind = pipelines.bind(gpu.device(), texture, draw, filter);
-                        let mut got = pipelines.render(&gpu, &bind, draw, filter, format, size).unwrap();
-                        if format == wgpu::TextureFormat::Bgra8Unorm {
-                            got.chunks_mut(4).for_each(|p| p.swap(0, 2));
-                        }
+                        let got =
+                            rgba(pipelines.render(&gpu, &bind, draw, filter, format, size, None).unwrap(), format);
                         let want = transform(mode, View::Stereo, frame.clone());
-                        for (i, g) in got.chunks(4).enumerate() {
+                        for (i, g) in got.as_chunks::<4>().0.iter().enumerate() {
                             let (x, y) = (i as u32 % size.0, i as u32 / size.0);
-                            // Sharp: the image pixel under the pixel, within 1 code. Filtered:
-                            // also the weights' precision (the rasterizer's 1/256 pixel puts the
-                            // position up to 1/256 texel off, moving the mix by as much of the
-                            // range of the four pixels mixed).
-                            let (w, tolerance): ([f64; 3], [f64; 3]) = if filter == nearest {
-                                let s = size.0 / eye;
-                                let p = want.get(x / s, y / s);
-                                (std::array::from_fn(|c| f64::from(p[c])), [1.0; 3])
-                            } else {
-                                let (w, range) = bilinear(&want, size, (x, y), format.is_srgb());
-                                (w, range.map(|r| 1.0 + r / 256.0))
-                            };
-                            for c in 0..3 {
-                                let d = (f64::from(g[c]) - w[c]).abs();
-                                assert!(
-                                    d <= tolerance[c],
-                                    "{mode} {format:?} {filter:?} at {size:?}: pixel ({x},{y}) channel {c}: GPU {} vs CPU {} (tolerance {})",
-                                    g[c],
-                                    w[c],
-                                    tolerance[c]
-                                );
-                                exact += usize::from(f64::from(g[c]) == w[c].round());
-                                beyond_one += usize::from(d > 1.0);
-                                channels += 1;
-                            }
-                            assert_eq!(g[3], 255, "{mode} {format:?} ({x},{y}) alpha");
+                            let (w, tolerance) = expected(&want, filter, size, (x, y), format.is_srgb());
+                            let (equal, off) = compare(*g, w, tolerance, || {
+                                format!("{mode} {format:?} {filter:?} at {size:?}: pixel ({x},{y})")
+                            });
+                            exact += equal;
+                            beyond_one += off;
+                            channels += 3;
                         }
                     }
                     eprintln!(

@@ -1,7 +1,7 @@
 // Draws a stimulus frame into a rectangle of the window (the viewport): a frame shown as it
 // is (`fs_copy`), the Dubois red-cyan anaglyph of a side-by-side stereo frame (`fs_anaglyph_*`),
-// or its eyes squeezed side by side or top and bottom (`fs_compose`), composed here at draw
-// time.
+// or its eyes squeezed side by side or top and bottom or interleaved by screen line
+// (`fs_compose`), composed here at draw time.
 //
 // The anaglyph is the GPU twin of `display::anaglyph_with` (crates/runner/src/display.rs):
 // the same matrices (substituted from Rust by `gpu.rs`) and the same order of sums, in linear
@@ -13,18 +13,23 @@
 // the CPU; with a filtering sampler (a scale that is not an integer) each eye's codes are
 // filtered before the composition, where the CPU path's image was filtered after it.
 //
-// `fs_compose` is the GPU twin of `display::transform` for `sbs-half` and `top-bottom` (MODE
-// below). It computes the pixel of the CPU's display image (the size of one eye) at a given
-// position exactly as the CPU does, rounded to a code: two source pixels averaged in linear
-// light (alpha: the mean rounded up), and opaque black in a column or row an odd size leaves
-// over. A screen pixel's position maps to the image as in the copy of the CPU's image: with a
-// nearest sampler (FILTERED false) the image pixel under the pixel's centre; with a filtering
-// one (FILTERED true) the bilinear mix (clamped at the edges) of the four image pixels around
-// it, of their codes for targets that store the codes given, of their linear values for sRGB
-// targets (SRGB_TARGET), as a filtering sampler mixes the copy's texels through the view
-// `gpu.rs` binds for each target. So the composition is exact at every scale; only the
-// weights' precision differs from the texture unit's. (`row-interleaved` only selects rows:
-// the CPU does it, see `gpu::composes_on_gpu`.)
+// `fs_compose` is the GPU twin of `display::transform` for `sbs-half` and `top-bottom`, and
+// of `display::row_interleave_on_screen` for `row-interleaved` (MODE below). For the squeezes
+// it computes the pixel of the CPU's display image (the size of one eye) at a given position
+// exactly as the CPU does, rounded to a code: two source pixels averaged in linear light
+// (alpha: the mean rounded up), and opaque black in a column or row an odd size leaves over.
+// Row-interleaving chooses the eye by the screen line, not the image row: the fragment's
+// framebuffer row (`@builtin(position)`, physical pixels counted from 0 at the top of the
+// framebuffer, whatever the viewport and egui's pixels_per_point) is even for the left eye,
+// odd for the right (`display::line_eye`); the pixel is then that eye's image at the position,
+// so each eye is scaled on its own and every screen line shows one eye whatever the scale
+// and wherever the stimulus's top falls. A screen pixel's position maps to the image as in
+// the copy of the CPU's image: with a nearest sampler (FILTERED false) the image pixel under
+// the pixel's centre; with a filtering one (FILTERED true) the bilinear mix (clamped at the
+// edges) of the four image pixels around it, of their codes for targets that store the codes
+// given, of their linear values for sRGB targets (SRGB_TARGET), as a filtering sampler mixes
+// the copy's texels through the view `gpu.rs` binds for each target. So the composition is
+// exact at every scale; only the weights' precision differs from the texture unit's.
 
 @group(0) @binding(0) var image: texture_2d<f32>;
 @group(0) @binding(1) var image_sampler: sampler;
@@ -93,7 +98,7 @@ fn fs_anaglyph_encode(in: VertexOutput) -> @location(0) vec4<f32> {
     return vec4<f32>(floor(c * 255.0 + 0.5) / 255.0, 1.0);
 }
 
-// Which composition `fs_compose` draws: 1 sbs-half, 2 top-bottom.
+// Which composition `fs_compose` draws: 1 sbs-half, 2 top-bottom, 3 row-interleaved.
 override MODE: u32 = 1u;
 // Whether the frame is drawn with a filtering sampler (bilinear), or a nearest one.
 override FILTERED: bool = false;
@@ -126,31 +131,35 @@ fn out_size() -> vec2<i32> {
     return vec2<i32>(d.x / 2, d.y);
 }
 
-// Pixel `o` of the CPU's display image (as codes / 255).
-fn composed(o: vec2<i32>) -> vec4<f32> {
+// Pixel `o` of the CPU's display image (as codes / 255); for row-interleaving, pixel `o` of
+// eye `eye` (0 left, 1 right), the eye of the screen line drawn.
+fn composed(o: vec2<i32>, eye: i32) -> vec4<f32> {
     let size = out_size();
     let black = vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    if MODE == 3u {
+        return eye_texel(eye, o.x, o.y);
+    }
     if MODE == 1u {
         let half = size.x / 2;
         if o.x >= 2 * half {
             return black;
         }
-        let eye = select(0, 1, o.x >= half);
-        let x = 2 * (o.x - eye * half);
-        return average(eye_texel(eye, x, o.y), eye_texel(eye, x + 1, o.y));
+        let e = select(0, 1, o.x >= half);
+        let x = 2 * (o.x - e * half);
+        return average(eye_texel(e, x, o.y), eye_texel(e, x + 1, o.y));
     }
     let half = size.y / 2;
     if o.y >= 2 * half {
         return black;
     }
-    let eye = select(0, 1, o.y >= half);
-    let y = 2 * (o.y - eye * half);
-    return average(eye_texel(eye, o.x, y), eye_texel(eye, o.x, y + 1));
+    let e = select(0, 1, o.y >= half);
+    let y = 2 * (o.y - e * half);
+    return average(eye_texel(e, o.x, y), eye_texel(e, o.x, y + 1));
 }
 
 // A composed pixel in the space the target is given: codes, or linear light for sRGB targets.
-fn target_value(o: vec2<i32>) -> vec4<f32> {
-    let c = composed(clamp(o, vec2<i32>(0), out_size() - 1));
+fn target_value(o: vec2<i32>, eye: i32) -> vec4<f32> {
+    let c = composed(clamp(o, vec2<i32>(0), out_size() - 1), eye);
     if SRGB_TARGET {
         return vec4<f32>(linear(c.rgb), c.a);
     }
@@ -159,14 +168,17 @@ fn target_value(o: vec2<i32>) -> vec4<f32> {
 
 @fragment
 fn fs_compose(in: VertexOutput) -> @location(0) vec4<f32> {
+    // The screen line's eye (row-interleaving): framebuffer rows are counted from 0 at the top
+    // and the position is the pixel's centre (row + 0.5); even lines show the left eye.
+    let eye = i32(floor(in.position.y)) & 1;
     let size = vec2<f32>(out_size());
     if !FILTERED {
-        return target_value(vec2<i32>(floor(in.uv * size)));
+        return target_value(vec2<i32>(floor(in.uv * size)), eye);
     }
     let p = in.uv * size - 0.5;
     let i = vec2<i32>(floor(p));
     let f = p - floor(p);
-    let top = mix(target_value(i), target_value(i + vec2<i32>(1, 0)), f.x);
-    let bottom = mix(target_value(i + vec2<i32>(0, 1)), target_value(i + vec2<i32>(1, 1)), f.x);
+    let top = mix(target_value(i, eye), target_value(i + vec2<i32>(1, 0), eye), f.x);
+    let bottom = mix(target_value(i + vec2<i32>(0, 1), eye), target_value(i + vec2<i32>(1, 1), eye), f.x);
     return mix(top, bottom, f.y);
 }

@@ -462,3 +462,25 @@ fn anaglyph_trial_is_composed_on_the_gpu_when_drawn() {
     assert_eq!(r.len(), 1);
     assert!(r[0].shown.iter().all(|id| id.view == View::Stereo));
 }
+
+/// Without a wgpu device (egui's own textures, as with the glow renderer) row-interleaved
+/// stereo is right only at one screen pixel per stimulus pixel; a small stimulus calibrated
+/// to 14.4 degrees is drawn much larger, so the trial says the stereo is wrong instead of
+/// showing it silently.
+#[test]
+fn row_interleave_without_wgpu_warns_when_the_scale_is_not_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = config_of(definition_of(dir.path(), "2afc", "stereo"), dir.path(), 64, 36);
+    cfg.display = DisplayMode::RowInterleaved;
+    let mut h = harness(cfg);
+    start(&mut h, "I01");
+    h.get_by_label("Begin practice").click();
+    until(&mut h, "presenting");
+    h.run_steps(2);
+    let warning = h.query_by_label_contains("Row-interleaved stereo is WRONG here");
+    assert!(warning.is_some(), "no warning that row-interleaved stereo needs the wgpu renderer");
+    until(&mut h, "answer");
+    h.key_press(Key::Num1);
+    h.step();
+    assert_eq!(rows(h.state().session().unwrap().path()).len(), 1);
+}

@@ -34,7 +34,8 @@ pub enum DisplayMode {
     TopBottom,
     /// Red-cyan anaglyph with Dubois's least-squares matrices.
     Anaglyph,
-    /// Even rows from the left eye, odd rows from the right (passive polarised monitors).
+    /// Even screen lines (physical pixel rows from the top of the window) show the left eye,
+    /// odd ones the right (passive polarised monitors), whatever the stimulus's scale.
     RowInterleaved,
 }
 
