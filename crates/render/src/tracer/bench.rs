@@ -289,6 +289,13 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
         "benchmark": "tracer",
         "command": std::env::args().collect::<Vec<_>>().join(" "),
         "machine": machine,
+        // The instruction set this binary was compiled for (Mitsuba's scalar_rgb wheel uses
+        // AVX2 and FMA; `cargo build-x86-64-v3` builds blurlab for the same level).
+        "build": {
+            "avx2": cfg!(target_feature = "avx2"),
+            "fma": cfg!(target_feature = "fma"),
+            "bmi2": cfg!(target_feature = "bmi2"),
+        },
         "frame": {
             "stimulus": BENCH_STIMULUS.to_string(),
             "frame": moving.frame,
