@@ -15,9 +15,9 @@
 //! to [`MAX_DISTRIBUTION_ROWS`] rows high and a square of `f x f` pixels (`f` a power of
 //! two) of larger ones: the distribution then stays small enough to live in the caches
 //! (a full-resolution one of a 1024 x 512 map is 14 MB and every light sample missed the
-//! cache), while radiance is still looked up at full resolution. The rows' tables are
-//! 16-bit fixed point (see `rows`), which keeps them in a core's L2 cache. The density a sample is
-//! given is the one it was drawn with, computed from the stored cumulative tables
+//! cache), while radiance is still looked up at full resolution. The marginal and the
+//! rows are 16-bit fixed-point tables (see `cdf16`), which keeps them in a core's L2
+//! cache. The density a sample is given is the one it was drawn with, computed from the stored cumulative tables
 //! themselves, so the estimator stays unbiased whatever the cell size and rounding. Every
 //! map, including the built-in default and the uniform one of the furnace tests, goes
 //! through this same construction.
@@ -124,8 +124,7 @@ pub struct EnvironmentMap {
     height: u32,
     /// Per pixel: radiance, already scaled by the lighting's intensity.
     texels: Vec<[f32; 3]>,
-    /// Pixels per side of a distribution cell (a power of two), and its log2.
-    cell: u32,
+    /// log2 of the pixels per side of a distribution cell.
     cell_shift: u32,
     /// Distribution size in cells.
     dist_width: u32,
@@ -133,8 +132,7 @@ pub struct EnvironmentMap {
     /// World-from-map rotation about +y: cosine and sine.
     rot_cos: f64,
     rot_sin: f64,
-    /// Cumulative weights of the distribution's rows, `dist_height + 1` entries from 0
-    /// to 1.
+    /// The distribution over rows, in 16-bit fixed point.
     marginal: Cdf16,
     /// The rows' conditional distributions, in 16-bit fixed point.
     rows: Cdf16,
@@ -340,7 +338,6 @@ impl EnvironmentMap {
             width: w,
             height: h,
             texels,
-            cell: f,
             cell_shift: f.trailing_zeros(),
             dist_width: wd as u32,
             dist_height: hd as u32,
@@ -524,7 +521,7 @@ impl EnvironmentMap {
             return None;
         }
         // The pixel inside the cell.
-        let f = self.cell as usize;
+        let f = 1usize << self.cell_shift;
         let px = (((x as f64 + fx) * f as f64) as usize).clamp(x * f, x * f + f - 1);
         let py = (((y as f64 + fy) * f as f64) as usize).clamp(y * f, y * f + f - 1);
         let m = DVec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta);
@@ -719,7 +716,7 @@ mod tests {
         let mut img = default_map(1024);
         img.set(700, 300, [5.0e4, 5.0e4, 5.0e4]);
         let map = EnvironmentMap::from_image(&img, 1.0, 0.4, "big").unwrap();
-        assert_eq!((map.cell, map.dist_width, map.dist_height), (2, 512, 256));
+        assert_eq!((map.cell_shift, map.dist_width, map.dist_height), (1, 512, 256));
         let total = integrate_sphere(|d| map.pdf(d), 1024);
         assert!((total - 1.0).abs() < 2e-3, "integral {total}");
         let (wd, hd) = (512usize, 256usize);

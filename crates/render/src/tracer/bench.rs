@@ -229,14 +229,6 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
     let moving = benchmark_frame(&design, opts.spp, false)?;
     let frozen = benchmark_frame(&design, opts.spp, true)?;
     let env = EnvironmentMap::from_lighting(&moving.lighting)?;
-
-    // Warm-up (page faults, thread pool start) on a small copy, not timed.
-    let mut warm = frozen.clone();
-    warm.samples_per_pixel = 1;
-    render_frame(&warm, &env);
-
-    let mut frozen_b = frozen.clone();
-    frozen_b.views[0].seed ^= 0x9e37_79b9_7f4a_7c15;
     let peer = match opts.peer.as_str() {
         "mitsuba" => {
             let work = match &opts.work {
@@ -250,6 +242,14 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
         "none" => None,
         other => return Err(BenchError::Peer(format!("unknown peer `{other}` (expected mitsuba or none)"))),
     };
+
+    // Warm-up (page faults, thread pool start) on a small copy, not timed.
+    let mut warm = frozen.clone();
+    warm.samples_per_pixel = 1;
+    render_frame(&warm, &env);
+
+    let mut frozen_b = frozen.clone();
+    frozen_b.views[0].seed ^= 0x9e37_79b9_7f4a_7c15;
 
     // Rounds alternate the renderers; the images of the last round are kept (the same
     // seeds give the same images every round).
@@ -270,6 +270,7 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
     let best = |samples: u64, seconds: &[f64]| samples as f64 / seconds.iter().copied().fold(f64::INFINITY, f64::min);
     let mean = |samples: u64, seconds: &[f64]| samples as f64 * seconds.len() as f64 / seconds.iter().sum::<f64>();
     let ours_static_sps = best(static_a.samples, &static_seconds);
+    let ours_static_sps_mean = mean(static_a.samples, &static_seconds);
     let ours_noise = rms_noise(&static_a.image, &static_b.image);
     let ours_mean = mean_rgb(&[&static_a.image, &static_b.image]);
     let moving_sps = best(moving_run.samples, &moving_seconds);
@@ -316,7 +317,7 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
             "static_frame": {
                 "seconds": static_seconds,
                 "camera_samples_per_second": ours_static_sps,
-                "camera_samples_per_second_mean": mean(static_a.samples, &static_seconds),
+                "camera_samples_per_second_mean": ours_static_sps_mean,
                 "noise_rms": ours_noise,
                 "mean_rgb": ours_mean,
             },
@@ -361,7 +362,7 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
         result["comparison"] = json!({
             "rate": "best render of all rounds, for both renderers",
             "speedup_static": ours_static_sps / their_sps,
-            "speedup_static_mean": mean(static_a.samples, &static_seconds) / their_sps_mean,
+            "speedup_static_mean": ours_static_sps_mean / their_sps_mean,
             "speedup_moving_vs_mitsuba_static": moving_sps / their_sps,
             "noise_ratio_blurlab_over_mitsuba": ours_noise / their_noise,
             "image_rms_difference": image_rms_difference,
@@ -445,4 +446,26 @@ fn write_peer_scene(scene: &FrameScene, dir: &Path, sampler: &str) -> Result<(),
     });
     write(&dir.join("scene.json"), &serde_json::to_vec_pretty(&desc).expect("JSON of plain values"))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_unknown_peer_is_named_before_anything_is_rendered() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let opts = BenchOptions {
+            design: root.join("stimuli/navarro2011.toml"),
+            spp: 1,
+            peer: "blender".into(),
+            python: "python3".into(),
+            peer_script: root.join("bench/mitsuba_peer.py"),
+            mitsuba_sampler: "independent".into(),
+            work: None,
+            rounds: 1,
+        };
+        let err = run_benchmark(&opts).unwrap_err().to_string();
+        assert!(err.contains("unknown peer `blender` (expected mitsuba or none)"), "{err}");
+    }
 }

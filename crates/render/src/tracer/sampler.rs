@@ -7,8 +7,8 @@
 //! scramble, and every one but the pixel position its own shuffle of the sample index:
 //! dimensions are padded, not correlated, and the points of one dimension over the
 //! pixel's samples stay well stratified (a (0, 2)-sequence in 2D). The pixel position
-//! keeps the samples' own order, the reference the other dimensions are shuffled
-//! against (one shuffle fewer per camera sample). Skipping a dimension (no time sampling in a
+//! keeps the samples' own order, the reference the other dimensions are shuffled against
+//! (one shuffle fewer per camera sample). Skipping a dimension (no time sampling in a
 //! static frame) does not change the values of the others.
 
 use study::seed::splitmix64;
