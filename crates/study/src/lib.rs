@@ -1,7 +1,8 @@
 //! blurlab's domain model, shared by the renderer, the experiment runner and the analysis:
 //! stimulus ids and seeds, the scene of a stimulus at any time, manifests of rendered sets,
-//! response logs, and durable file writing. It renders nothing and shows nothing.
+//! response logs, durable file writing, the sRGB curve and small statistics. It renders nothing and shows nothing.
 
+pub mod color;
 pub mod design;
 pub mod experiment;
 pub mod fsio;
@@ -11,6 +12,7 @@ pub mod response;
 pub mod scene;
 pub mod seed;
 pub mod select;
+pub mod stats;
 
 pub use ids::{Factor, StimulusId, View};
 pub use seed::Eye;
