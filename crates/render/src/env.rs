@@ -29,7 +29,7 @@ use glam::DVec3;
 use study::scene::{Environment, Lighting};
 
 use crate::io::{LinearImage, decode_exr, decode_hdr};
-use crate::math::{sin_cos_small, sin_cos_turns};
+use crate::numeric::trig::{sin_cos_small, sin_cos_turns};
 
 mod cdf16;
 use cdf16::Cdf16;

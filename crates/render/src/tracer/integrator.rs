@@ -17,7 +17,7 @@ use super::intersect::{Geometry, Hit, Ray, Surface, spawn_ray};
 use super::material::Shader;
 use super::sampler::{PixelSampler, dim};
 use crate::env::EnvironmentMap;
-use crate::math::sin_cos_turns;
+use crate::numeric::trig::sin_cos_turns;
 
 /// Spread (radians) of the cone a sample stands for after a diffuse bounce, for texture
 /// filtering of indirect hits: diffuse light averages over a wide area.

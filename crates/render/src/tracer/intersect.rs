@@ -10,6 +10,7 @@
 //! leaves a convex surface on its outer side never meets that surface again, so the
 //! tracer skips that surface rather than relying on an epsilon.
 
+use crate::numeric::offset_along_normal;
 use glam::DVec3;
 
 /// A ray with a unit direction.
@@ -53,10 +54,6 @@ pub struct Geometry {
     /// Height of the floor plane (y).
     pub floor_height: f64,
 }
-
-/// Relative error bound used for the origin offsets: a small multiple of the unit
-/// round-off covering the few operations that produce a hit point.
-const ERR_GAMMA: f64 = 16.0 * f64::EPSILON;
 
 /// Nearest root of the ray-sphere quadratic with `t > 0`, or `None`.
 #[inline]
@@ -154,8 +151,7 @@ impl Geometry {
 /// the normal by the hit point's error bound so it cannot start below the surface.
 #[inline]
 pub fn spawn_ray(hit: &Hit, dir: DVec3) -> Ray {
-    let err = ERR_GAMMA * (hit.point.abs().max_element() + 1.0);
-    Ray { origin: hit.point + hit.normal * err, dir }
+    Ray { origin: offset_along_normal(hit.point, hit.normal), dir }
 }
 
 #[cfg(test)]

@@ -14,7 +14,7 @@ use glam::DVec3;
 use study::scene::Material;
 use study::seed::splitmix64;
 
-use crate::math::floor;
+use crate::numeric::trig::floor;
 
 /// A material prepared for fast evaluation.
 #[derive(Clone, Debug)]
