@@ -6,6 +6,7 @@
 
 use std::io::Cursor;
 
+use study::color::srgb_encode;
 use study::scene::{Exposure, ToneMap};
 
 /// Errors of encoding or decoding images.
@@ -95,11 +96,6 @@ pub fn compose_side_by_side(images: &[LinearImage]) -> LinearImage {
         x0 += img.width;
     }
     out
-}
-
-/// The sRGB transfer function (linear [0, 1] to encoded [0, 1]).
-pub fn srgb_encode(linear: f64) -> f64 {
-    if linear <= 0.003_130_8 { 12.92 * linear } else { 1.055 * linear.powf(1.0 / 2.4) - 0.055 }
 }
 
 /// Maps one linear radiance value to a display value in [0, 1]: exposure, tone curve,

@@ -241,10 +241,8 @@ pub fn frame_stats(csv: &Path, fps: f64) -> Result<FrameStats, RunnerError> {
     }
     let log = study::response::SessionLog::read(csv)?;
     let dropped = log.rows.iter().map(|(_, r)| u64::from(r.dropped_frames)).sum();
-    let n = intervals.len().max(1) as f64;
-    let mean = intervals.iter().sum::<f64>() / n;
-    let sd = (intervals.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
-    let max = intervals.iter().copied().fold(0.0, f64::max);
+    let summary = study::stats::Summary::of(&intervals);
+    let (mean, sd, max) = (summary.mean, summary.population_sd(), summary.max.max(0.0));
     Ok(FrameStats {
         frames,
         dropped,

@@ -68,18 +68,8 @@ pub const DUBOIS_LEFT: [[f32; 3]; 3] = [[0.437, 0.449, 0.164], [-0.062, -0.062, 
 /// Dubois's red-cyan matrix for the right eye.
 pub const DUBOIS_RIGHT: [[f32; 3]; 3] = [[-0.011, -0.032, -0.007], [0.377, 0.761, 0.009], [-0.026, -0.093, 1.234]];
 
-/// sRGB 8-bit to linear.
-pub fn srgb_to_linear(v: u8) -> f32 {
-    let c = f32::from(v) / 255.0;
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
-}
-
-/// Linear to sRGB 8-bit (clamped, rounded).
-pub fn linear_to_srgb(l: f32) -> u8 {
-    let l = if l.is_finite() { l.clamp(0.0, 1.0) } else { 0.0 };
-    let c = if l <= 0.003_130_8 { l * 12.92 } else { 1.055 * l.powf(1.0 / 2.4) - 0.055 };
-    (c * 255.0 + 0.5) as u8
-}
+/// sRGB 8-bit to linear, and linear to sRGB 8-bit (clamped, rounded): the shared curve.
+pub use study::color::{linear_to_srgb8 as linear_to_srgb, srgb8_to_linear as srgb_to_linear};
 
 /// Fast sRGB conversions: a 256-entry table from sRGB codes to linear light, and for the
 /// way back the smallest linear value of every output code (found once by bisection over the
@@ -415,12 +405,10 @@ mod tests {
 
     /// The exact formulas in f64 (`powf` per value), the reference of the table path.
     fn exact_linear(v: u8) -> f64 {
-        let c = f64::from(v) / 255.0;
-        if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+        study::color::srgb_decode(f64::from(v) / 255.0)
     }
     fn exact_code(l: f64) -> f64 {
-        let l = l.clamp(0.0, 1.0);
-        255.0 * if l <= 0.003_130_8 { l * 12.92 } else { 1.055 * l.powf(1.0 / 2.4) - 0.055 }
+        255.0 * study::color::srgb_encode(l.clamp(0.0, 1.0))
     }
 
     #[test]

@@ -247,9 +247,8 @@ pub fn interval_stats(times_ms: &[f64]) -> (f64, f64, f64) {
     if d.is_empty() {
         return (0.0, 0.0, 0.0);
     }
-    let mean = d.iter().sum::<f64>() / d.len() as f64;
-    let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / d.len() as f64;
-    (mean, var.sqrt(), d.iter().copied().fold(0.0, f64::max))
+    let s = study::stats::Summary::of(&d);
+    (s.mean, s.population_sd(), s.max.max(0.0))
 }
 
 #[cfg(test)]

@@ -14,6 +14,7 @@ use study::scene::{Environment, FrameScene};
 
 use crate::env::{EnvironmentMap, default_map};
 use crate::io::{LinearImage, decode_exr, encode_exr};
+use crate::numeric::CompensatedSum;
 use crate::tracer::render_frame;
 
 /// The stimulus the benchmark renders.
@@ -155,16 +156,11 @@ fn rms_noise(a: &LinearImage, b: &LinearImage) -> f64 {
 }
 
 fn mean_rgb(images: &[&LinearImage]) -> [f64; 3] {
-    let mut m = [0.0; 3];
     let n: usize = images.iter().map(|i| i.pixels.len()).sum();
-    for img in images {
-        for p in &img.pixels {
-            for c in 0..3 {
-                m[c] += f64::from(p[c]);
-            }
-        }
-    }
-    m.map(|v| v / n as f64)
+    std::array::from_fn(|c| {
+        let sum: CompensatedSum = images.iter().flat_map(|i| i.pixels.iter().map(move |p| f64::from(p[c]))).collect();
+        sum.value() / n as f64
+    })
 }
 
 fn average(a: &LinearImage, b: &LinearImage) -> LinearImage {

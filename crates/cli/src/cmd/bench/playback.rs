@@ -148,10 +148,8 @@ fn measure(args: &Args, work: &Path, threads: usize) -> anyhow::Result<serde_jso
         let session = app.session().context("the window closed before the session started")?;
         let stats = frame_stats(session.path(), 30.0).map_err(runner_error)?;
         let d = &app.refresh_intervals_ms;
-        let n = d.len().max(1) as f64;
-        let mean = d.iter().sum::<f64>() / n;
-        let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
-        let max = d.iter().copied().fold(0.0, f64::max);
+        let summary = study::stats::Summary::of(d);
+        let (mean, sd, max) = (summary.mean, summary.population_sd(), summary.max.max(0.0));
         let refresh = app.refresh();
         serde_json::json!({
             "trials": app.written.len(),
