@@ -20,6 +20,14 @@ pub fn shipped_design() -> PathBuf {
     repo_root().join("stimuli/navarro2011.toml")
 }
 
+/// Reports a test that cannot run here, on the process's stderr itself (libtest captures
+/// the print macros of passing tests, so an `eprintln!` would hide the skip): the line
+/// starts with `SKIPPED:` and names the test and the reason.
+pub fn skipped(test: &str, reason: &str) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr(), "SKIPPED: {test}: {reason}");
+}
+
 /// Path of an up-to-date `blurlab` binary.
 ///
 /// # Panics

@@ -293,7 +293,7 @@ fn corrupt_environment_map_fails_with_its_name_and_exit_code_2() {
 fn unwritable_output_folder_fails_with_exit_code_3() {
     // /sys refuses new folders even to root.
     if !Path::new("/sys/kernel").exists() {
-        eprintln!("skipped: no /sys");
+        blurlab_e2e::skipped("unwritable_output_folder_fails_with_exit_code_3", "no /sys");
         return;
     }
     let o = run(&render_args("/sys/blurlab-e2e-set", "M1 S1 T1 A1 mono", &design_arg()));
@@ -314,7 +314,10 @@ fn full_disk_fails_with_exit_code_3_and_keeps_finished_sequences() {
         .status()
         .is_ok_and(|s| s.success());
     if !mounted {
-        eprintln!("skipped: cannot mount a tmpfs here");
+        blurlab_e2e::skipped(
+            "full_disk_fails_with_exit_code_3_and_keeps_finished_sequences",
+            "cannot mount a tmpfs here (needs root and mount rights; the injected-writer test covers the path)",
+        );
         return;
     }
     let out = mnt.join("set");

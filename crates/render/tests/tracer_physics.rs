@@ -61,10 +61,8 @@ fn render(scene: &FrameScene) -> Vec<LinearImage> {
 }
 
 fn mean_and_se(values: &[f64]) -> (f64, f64) {
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
+    let s = study::stats::Summary::of(values);
+    (s.mean, s.standard_error())
 }
 
 fn channel(img: &LinearImage, c: usize) -> Vec<f64> {
@@ -124,8 +122,15 @@ fn furnace_with_a_bounce_limit_follows_the_geometric_series() {
     s.floor.albedo = [1.0; 3];
     s.integrator = Integrator { max_bounces: 0, russian_roulette_from: 3 };
     let img = &render(&s)[0];
-    assert!(img.pixels.iter().all(|p| p[0] == 0.0 || (f64::from(p[0]) - L).abs() < 1e-6 || p[0] < L as f32));
+    // Box pixel filter, 4 samples: each pixel is L times the share of its camera rays that
+    // escape to the sky, a multiple of L / 4, grey, and 0 where every ray meets a surface.
+    for (i, p) in img.pixels.iter().enumerate() {
+        let k = f64::from(p[0]) / (L / 4.0);
+        assert!((k - k.round()).abs() < 1e-5 && (0.0..=4.0).contains(&k.round()), "pixel {i}: {p:?} is not k L / 4");
+        assert!(p[1] == p[0] && p[2] == p[0], "pixel {i}: {p:?} is not grey");
+    }
     assert_eq!(img.get(16, 17)[0], 0.0, "floor pixel without bounces");
+    assert!((f64::from(img.get(16, 0)[0]) - L).abs() < 1e-6, "sky pixel {:?}", img.get(16, 0));
 }
 
 #[test]

@@ -779,13 +779,17 @@ options = ["yes", "no"]
     #[test]
     fn shipped_definitions_parse() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../experiments");
-        let Ok(entries) = std::fs::read_dir(&dir) else { return };
+        let entries = std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+        let mut parsed = 0;
         for entry in entries {
             let path = entry.unwrap().path();
             if path.extension().is_some_and(|e| e == "toml") {
                 let d = ExperimentDefinition::read(&path).unwrap_or_else(|e| panic!("{e}"));
                 assert_eq!(Some(d.name.as_str()), path.file_stem().and_then(|s| s.to_str()), "{}", path.display());
+                parsed += 1;
             }
         }
+        // Tests #1-#3, mono and stereo, with the sampling and shutter variants of #2.
+        assert!(parsed >= 9, "only {parsed} definitions in {}", dir.display());
     }
 }
