@@ -108,7 +108,7 @@ fn write_set(dir: &Path, stimuli: &[StimulusId]) {
                 shutter: level(s.level_label(study::Factor::Shutter), 0.25 * f64::from(s.shutter - 1)),
                 samples: level(s.level_label(study::Factor::Samples), f64::from(spp)),
             },
-            method: "tracer".into(),
+            method: study::Method::Tracer,
             preset: "quick".into(),
             width: 64,
             height: 36,

@@ -18,15 +18,11 @@ use study::fsio::{sha256_file, sha256_hex, write_atomic};
 use study::manifest::{
     FrameRecord, INDEX_FORMAT, IndexEntry, ManifestError, SEQUENCE_FORMAT, SequenceManifest, SetIndex,
 };
-use study::scene::FrameScene;
-use study::{SOFTWARE_VERSION, StimulusId};
+use study::{Method, SOFTWARE_VERSION, StimulusId};
 
 use crate::env::{EnvError, EnvironmentMap};
-use crate::io::{IoError, LinearImage, compose_side_by_side, encode_exr, encode_png_srgb};
-use crate::tracer::render_frame;
-
-/// The rendering method recorded in manifests by this module.
-pub const METHOD: &str = "tracer";
+use crate::io::{IoError, encode_exr, encode_png_srgb};
+use crate::method::{RenderError, render_frame};
 
 /// Why a set could not be rendered.
 #[derive(Debug, thiserror::Error)]
@@ -55,6 +51,9 @@ pub enum SetError {
         /// Cause.
         source: IoError,
     },
+    /// The method cannot render here.
+    #[error(transparent)]
+    Method(#[from] RenderError),
     /// The output folder holds a set that this request must not mix with.
     #[error("{}: {message}", path.display())]
     Mismatch {
@@ -69,7 +68,7 @@ impl SetError {
     /// Whether the error comes from the user's input (design, environment map, output
     /// folder holding another set) rather than from writing.
     pub fn is_bad_input(&self) -> bool {
-        matches!(self, SetError::Design(_) | SetError::Environment(_) | SetError::Mismatch { .. })
+        matches!(self, SetError::Design(_) | SetError::Environment(_) | SetError::Method(_) | SetError::Mismatch { .. })
     }
 }
 
@@ -107,6 +106,8 @@ pub struct SetRequest<'a> {
     pub preset: Preset,
     /// Sequences to render, in order.
     pub ids: Vec<StimulusId>,
+    /// The rendering method (recorded in every manifest).
+    pub method: Method,
     /// The set's folder.
     pub out: PathBuf,
     /// Skip sequences that verify.
@@ -151,17 +152,6 @@ pub fn process_cpu_seconds() -> Option<f64> {
     let stime: f64 = fields.get(12)?.parse().ok()?;
     // Linux reports these in USER_HZ, which is 100 on every mainstream platform.
     Some((utime + stime) / 100.0)
-}
-
-/// Renders one frame and composes its eyes side by side (left eye left).
-pub fn render_composed(scene: &FrameScene, env: &EnvironmentMap) -> (LinearImage, u64) {
-    let output = render_frame(scene, env);
-    let image = if output.eyes.len() == 1 {
-        output.eyes.into_iter().next().unwrap_or_else(|| LinearImage::new(0, 0))
-    } else {
-        compose_side_by_side(&output.eyes)
-    };
-    (image, output.nonfinite_samples)
 }
 
 fn io_err<'a>(path: &'a Path, action: &'static str) -> impl FnOnce(io::Error) -> SetError + 'a {
@@ -282,7 +272,7 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
             let folder = out.join(id.to_string());
             let manifest_path = folder.join("manifest.json");
             if request.resume
-                && let Some(manifest_sha) = verify_sequence(&folder, design, preset, id, request.exr)
+                && let Some(manifest_sha) = verify_sequence(&folder, design, preset, id, request.method, request.exr)
             {
                 upsert(&mut index, id, &manifest_sha);
                 write_index(writer, &index_path, &mut index)?;
@@ -309,7 +299,7 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
             std::fs::create_dir_all(&folder).map_err(io_err(&folder, "cannot create the sequence folder"))?;
             remove_temporaries(&folder);
             let bar = progress.sequence_bar(id, preset.frames);
-            let manifest = render_sequence(design, preset, id, &folder, &env, request.exr, writer, |cost| {
+            let manifest = render_sequence(request, id, &folder, &env, writer, |cost| {
                 progress.advance(cost);
                 if let Some(b) = &bar {
                     b.inc(1);
@@ -334,24 +324,23 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
     Ok(report)
 }
 
-#[allow(clippy::too_many_arguments)]
 fn render_sequence(
-    design: &Design,
-    preset: &Preset,
+    request: &SetRequest<'_>,
     id: &StimulusId,
     folder: &Path,
     env: &EnvironmentMap,
-    exr: bool,
     writer: &dyn FileWriter,
     mut on_frame: impl FnMut(u64),
 ) -> Result<SequenceManifest, SetError> {
+    let (design, preset, exr) = (request.design, &request.preset, request.exr);
     let mut frames = Vec::with_capacity(preset.frames as usize);
     let mut size = (0, 0);
     for frame in 0..preset.frames {
         let scene = design.frame_scene_with(preset, id, frame)?;
         let wall0 = Instant::now();
         let cpu0 = process_cpu_seconds();
-        let (image, nonfinite) = render_composed(&scene, env);
+        let rendered = render_frame(request.method, &scene, env)?;
+        let (image, nonfinite) = (rendered.image, rendered.nonfinite_samples);
         let wall_seconds = wall0.elapsed().as_secs_f64();
         let cpu_seconds = match (cpu0, process_cpu_seconds()) {
             (Some(a), Some(b)) => (b - a).max(0.0),
@@ -389,7 +378,7 @@ fn render_sequence(
         id: *id,
         view: id.view,
         factors: design.factors(id, preset)?,
-        method: METHOD.to_owned(),
+        method: request.method,
         preset: preset.name.clone(),
         width: size.0,
         height: size.1,
@@ -484,14 +473,21 @@ fn load_index(path: &Path, design: &Design, preset: &Preset) -> Result<SetIndex,
 
 /// Whether `folder` holds a complete rendering of `id` as this request would produce it;
 /// returns the manifest's hash when it does.
-pub fn verify_sequence(folder: &Path, design: &Design, preset: &Preset, id: &StimulusId, exr: bool) -> Option<String> {
+pub fn verify_sequence(
+    folder: &Path,
+    design: &Design,
+    preset: &Preset,
+    id: &StimulusId,
+    method: Method,
+    exr: bool,
+) -> Option<String> {
     let manifest_path = folder.join("manifest.json");
     let bytes = std::fs::read(&manifest_path).ok()?;
     let m = SequenceManifest::read(&manifest_path).ok()?;
     let spp = preset.samples_per_pixel[usize::from(id.samples - 1)];
     let eyes = study::Eye::of_view(id.view).len() as u32;
     let matches = m.id == *id
-        && m.method == METHOD
+        && m.method == method
         && m.preset == preset.name
         && m.design_sha256 == design.sha256
         && m.samples_per_pixel == spp
@@ -552,6 +548,7 @@ mod tests {
             design,
             preset,
             ids: only.iter().map(|s| s.parse().unwrap()).collect(),
+            method: Method::Tracer,
             out: out.to_owned(),
             resume: false,
             exr: true,
@@ -575,11 +572,26 @@ mod tests {
         assert_eq!(index.sequences.len(), 1);
         let req = request(&d, dir.path(), &ids);
         assert!(
-            verify_sequence(&dir.path().join("M1-S1-T1-A1"), &d, &req.preset, &index.sequences[0].id, true).is_some()
+            verify_sequence(
+                &dir.path().join("M1-S1-T1-A1"),
+                &d,
+                &req.preset,
+                &index.sequences[0].id,
+                Method::Tracer,
+                true
+            )
+            .is_some()
         );
         assert!(
-            verify_sequence(&dir.path().join("M1-S1-T1-A2"), &d, &req.preset, &"M1-S1-T1-A2".parse().unwrap(), true)
-                .is_none()
+            verify_sequence(
+                &dir.path().join("M1-S1-T1-A2"),
+                &d,
+                &req.preset,
+                &"M1-S1-T1-A2".parse().unwrap(),
+                Method::Tracer,
+                true
+            )
+            .is_none()
         );
     }
 

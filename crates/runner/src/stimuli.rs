@@ -377,7 +377,7 @@ pub fn write_synthetic_set(
                 shutter: level(id.level_label(study::Factor::Shutter), 0.25 * f64::from(id.shutter - 1)),
                 samples: level(id.level_label(study::Factor::Samples), f64::from(id.samples)),
             },
-            method: "synthetic".into(),
+            method: study::Method::Tracer,
             preset: "test".into(),
             width: full_w,
             height,

@@ -8,6 +8,7 @@ pub mod experiment;
 pub mod fsio;
 pub mod ids;
 pub mod manifest;
+pub mod method;
 pub mod response;
 pub mod scene;
 pub mod seed;
@@ -15,6 +16,7 @@ pub mod select;
 pub mod stats;
 
 pub use ids::{Factor, StimulusId, View};
+pub use method::Method;
 pub use seed::Eye;
 
 /// The version of blurlab recorded in every file it writes.

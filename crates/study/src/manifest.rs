@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::ids::{StimulusId, View};
+use crate::method::Method;
 
 /// Format tag of a sequence manifest.
 pub const SEQUENCE_FORMAT: &str = "blurlab-sequence/1";
@@ -75,7 +76,7 @@ pub struct SequenceManifest {
     /// Factor levels.
     pub factors: Factors,
     /// Rendering method (`tracer`, `accum`, `mcguire`, `guertin`, `analytic`).
-    pub method: String,
+    pub method: Method,
     /// Preset name (`full`, `quick`).
     pub preset: String,
     /// Composed frame width in pixels (stereo: both eyes).

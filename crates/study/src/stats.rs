@@ -22,8 +22,7 @@ impl CompensatedSum {
     pub fn add(&mut self, x: f64) {
         let t = self.sum + x;
         // The low-order bits lost in `t`, from whichever operand was smaller.
-        self.compensation +=
-            if self.sum.abs() >= x.abs() { (self.sum - t) + x } else { (x - t) + self.sum };
+        self.compensation += if self.sum.abs() >= x.abs() { (self.sum - t) + x } else { (x - t) + self.sum };
         self.sum = t;
     }
 

@@ -84,6 +84,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         design: &design,
         preset,
         ids: ids.into_iter().collect(),
+        method: study::Method::Tracer,
         out: args.set.clone(),
         resume: true,
         exr: false,

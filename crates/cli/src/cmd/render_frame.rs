@@ -6,42 +6,30 @@ use std::path::PathBuf;
 use super::BadInput;
 use super::stimuli::{Frame, FrameArgs};
 use anyhow::Context as _;
-use clap::ValueEnum;
+use study::Method;
 
 /// Arguments.
 #[derive(clap::Args)]
 pub struct Args {
     #[command(flatten)]
     frame: FrameArgs,
-    /// Rendering method.
-    #[arg(long, value_enum, default_value_t = Method::Tracer)]
-    method: Method,
+    /// Rendering method: tracer, accum, mcguire, guertin or analytic (default: the design's).
+    #[arg(long, value_parser = parse_method)]
+    method: Option<Method>,
     /// Output file: `.exr` for linear radiance, `.png` for the sRGB display image.
     #[arg(long)]
     out: PathBuf,
 }
 
-/// Rendering methods.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum Method {
-    /// The CPU distribution ray tracer (the reference).
-    Tracer,
-    /// Accumulation buffer.
-    Accum,
-    /// McGuire et al. 2012 post-process blur.
-    Mcguire,
-    /// Guertin et al. 2014 post-process blur.
-    Guertin,
-    /// Gribel et al. 2010 analytic rasterizer.
-    Analytic,
+fn parse_method(text: &str) -> Result<Method, String> {
+    text.parse()
 }
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if !matches!(args.method, Method::Tracer) {
-        return Err(
-            BadInput(format!("--method {:?}: not built yet; use --method tracer", args.method).to_lowercase()).into()
-        );
+    let method = args.method.unwrap_or(Method::Tracer);
+    if !render::method::is_available(method) {
+        return Err(BadInput(format!("--method {method}: {}", render::RenderError::NotAvailable(method))).into());
     }
     let extension = args.out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     let exr = match extension.as_deref() {
@@ -52,7 +40,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let Frame { id, scene, .. } = args.frame.resolve()?;
     let env = render::env::EnvironmentMap::from_lighting(&scene.lighting).map_err(|e| BadInput(e.to_string()))?;
     let started = std::time::Instant::now();
-    let (image, nonfinite) = render::set::render_composed(&scene, &env);
+    let rendered = render::render_frame(method, &scene, &env).map_err(|e| BadInput(e.to_string()))?;
+    let (image, nonfinite) = (rendered.image, rendered.nonfinite_samples);
     let seconds = started.elapsed().as_secs_f64();
     let bytes = if exr {
         render::io::encode_exr(&image).context("cannot encode the EXR image")?
@@ -61,7 +50,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     study::fsio::write_atomic(&args.out, &bytes).with_context(|| format!("{}: cannot write", args.out.display()))?;
     eprintln!(
-        "{}: {id} frame {} ({}x{}, {} spp) in {seconds:.2} s, {nonfinite} non-finite samples discarded",
+        "{}: {id} frame {} with the {method} ({}x{}, {} spp) in {seconds:.2} s, {nonfinite} non-finite samples discarded",
         args.out.display(),
         args.frame.frame,
         image.width,

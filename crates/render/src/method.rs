@@ -1,0 +1,82 @@
+//! One entry point per rendering method: [`render_frame`] turns a frame's scene into one
+//! linear image (a stereo frame's eyes side by side, left eye left) with whichever
+//! [`Method`] the set names. Set rendering, `render-frame`, benchmarks and the cost report
+//! all render through it, so a new method is added here once.
+
+use study::Method;
+use study::scene::FrameScene;
+
+use crate::env::EnvironmentMap;
+use crate::io::{LinearImage, compose_side_by_side};
+
+/// Why a frame could not be rendered.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// The method is part of the study's design model but its renderer has not landed.
+    #[error("rendering method `{0}` is not available in this build yet; use `tracer`")]
+    NotAvailable(Method),
+}
+
+/// A rendered frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderedFrame {
+    /// Linear radiance; a stereo frame's eyes side by side (left eye left).
+    pub image: LinearImage,
+    /// Radiance samples that were NaN or infinite and were discarded.
+    pub nonfinite_samples: u64,
+    /// Camera samples traced (0 for methods that trace none).
+    pub camera_samples: u64,
+}
+
+/// Whether this build renders with `method`.
+pub fn is_available(method: Method) -> bool {
+    matches!(method, Method::Tracer)
+}
+
+/// Renders the frame `scene` with `method` on the CPU.
+pub fn render_frame(method: Method, scene: &FrameScene, env: &EnvironmentMap) -> Result<RenderedFrame, RenderError> {
+    match method {
+        Method::Tracer => {
+            let output = crate::tracer::render_frame(scene, env);
+            Ok(RenderedFrame {
+                image: compose_eyes(output.eyes),
+                nonfinite_samples: output.nonfinite_samples,
+                camera_samples: output.camera_samples,
+            })
+        }
+        other => Err(RenderError::NotAvailable(other)),
+    }
+}
+
+/// One image of a frame's eyes: the single eye of a mono frame, or the eyes side by side.
+pub fn compose_eyes(eyes: Vec<LinearImage>) -> LinearImage {
+    if eyes.len() == 1 {
+        eyes.into_iter().next().unwrap_or_else(|| LinearImage::new(0, 0))
+    } else {
+        compose_side_by_side(&eyes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn methods_without_a_renderer_are_refused_by_name() {
+        let design = study::design::Design::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
+        )
+        .unwrap();
+        let mut preset = design.preset("quick").unwrap();
+        (preset.width, preset.height, preset.samples_per_pixel) = (8, 4, vec![1; preset.samples_per_pixel.len()]);
+        let scene = design.frame_scene_with(&preset, &"M1-S1-T1-A1-stereo".parse().unwrap(), 0).unwrap();
+        let env = EnvironmentMap::from_lighting(&scene.lighting).unwrap();
+        let frame = render_frame(Method::Tracer, &scene, &env).unwrap();
+        assert_eq!((frame.image.width, frame.image.height), (16, 4));
+        assert_eq!(frame.camera_samples, 2 * 8 * 4);
+        for m in Method::ALL.into_iter().filter(|&m| !is_available(m)) {
+            let e = render_frame(m, &scene, &env).unwrap_err().to_string();
+            assert!(e.contains(&format!("`{m}` is not available")), "{e}");
+        }
+    }
+}
