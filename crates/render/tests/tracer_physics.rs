@@ -6,6 +6,7 @@
 use glam::{DQuat, DVec2, DVec3};
 use render::env::{EnvironmentMap, default_map};
 use render::io::LinearImage;
+use render::numeric::solve_quadratic;
 use render::tracer::bench::freeze_at;
 use render::tracer::{FrameSetup, render_frame};
 use study::ids::{StimulusId, View};
@@ -255,12 +256,16 @@ fn analytic_coverage(s: &FrameScene, x: u32, y: u32) -> f64 {
             let pv = v - d * v.dot(d);
             let (a, b, c) = (pv.dot(pv), 2.0 * pw.dot(pv), pw.dot(pw) - r * r);
             let covered = if close > open {
-                let disc = b * b - 4.0 * a * c;
-                if a == 0.0 || disc <= 0.0 {
-                    if c < 0.0 { 1.0 } else { 0.0 }
-                } else {
-                    let (t0, t1) = ((-b - disc.sqrt()) / (2.0 * a), (-b + disc.sqrt()) / (2.0 * a));
-                    (t1.min(close) - t0.max(open)).max(0.0) / (close - open)
+                match solve_quadratic(a, b, c) {
+                    Some((t0, t1)) if a != 0.0 && t0 < t1 => (t1.min(close) - t0.max(open)).max(0.0) / (close - open),
+                    // Still relative to the ray (a = 0), or grazing it: covered throughout or never.
+                    _ => {
+                        if c < 0.0 {
+                            1.0
+                        } else {
+                            0.0
+                        }
+                    }
                 }
             } else {
                 let t = open;
@@ -422,12 +427,14 @@ fn a_texture_feature_moves_as_rolling_predicts() {
         for x in 0..160 {
             let d = cam.ray_direction(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
             let f = cam.position - sph.centre_at(t2);
-            let b = f.dot(d);
-            let disc = b * b - (f.length_squared() - sph.radius * sph.radius);
-            if disc <= 0.0 {
+            let Some((near, far)) = solve_quadratic(1.0, 2.0 * f.dot(d), f.length_squared() - sph.radius * sph.radius)
+            else {
+                continue;
+            };
+            if near >= far {
                 continue;
             }
-            let q2 = cam.position + d * (-b - disc.sqrt());
+            let q2 = cam.position + d * near;
             // Keep away from the silhouette, where pixels mix sphere and sky.
             if (q2 - sph.centre_at(t2)).normalize().dot(-d) < 0.5 {
                 continue;
