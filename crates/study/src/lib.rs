@@ -13,6 +13,7 @@ pub mod scene;
 pub mod seed;
 pub mod select;
 pub mod stats;
+pub mod toml_locate;
 
 pub use ids::{Factor, StimulusId, View};
 pub use seed::Eye;
