@@ -625,44 +625,12 @@ struct RawAttribute {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::ExperimentToml;
 
-    const GOOD: &str = r#"format = "blurlab-experiment/1"
-name = "t"
-task = "2afc"
-question = "Which sequence has higher quality?"
-view = "mono"
-
-[stimuli]
-material = [2]
-speed = [2]
-shutter = [3, 4, 5]
-samples = [3, 4, 5]
-
-[pairs]
-repeats = 2
-
-[briefing]
-text = "Look for noise."
-[[briefing.examples]]
-label = "Noise"
-stimulus = "M2-S2-T3-A1"
-
-[[practice]]
-pair = ["M2-S2-T1-A1", "M2-S2-T3-A5"]
-
-[presentation]
-gap_ms = 300
-loops = 2
-
-[keys]
-first = "ArrowLeft"
-second = "ArrowRight"
-
-[[attributes]]
-key = "cg_experience"
-question = "Do you work in computer graphics?"
-options = ["yes", "no"]
-"#;
+    /// The base fixture: a complete definition using every table.
+    fn good() -> String {
+        ExperimentToml::base().to_string()
+    }
 
     fn parse(text: &str) -> Result<ExperimentDefinition, ExperimentError> {
         ExperimentDefinition::parse(Path::new("experiments/t.toml"), text)
@@ -670,7 +638,7 @@ options = ["yes", "no"]
 
     #[test]
     fn parses_a_complete_definition() {
-        let d = parse(GOOD).unwrap();
+        let d = parse(&good()).unwrap();
         assert_eq!(d.task, Task::TwoAfc);
         assert_eq!(d.stimuli.len(), 9);
         assert_eq!(d.stimuli[0].to_string(), "M2-S2-T3-A3");
@@ -685,8 +653,9 @@ options = ["yes", "no"]
     }
 
     fn error_of(from: &str, to: &str) -> String {
-        assert!(GOOD.contains(from), "{from}");
-        parse(&GOOD.replacen(from, to, 1)).unwrap_err().to_string()
+        let good = good();
+        assert!(good.contains(from), "{from}");
+        parse(&good.replacen(from, to, 1)).unwrap_err().to_string()
     }
 
     #[test]
@@ -720,7 +689,7 @@ options = ["yes", "no"]
             assert!(e.starts_with("experiments/t.toml: line "), "{e}");
             assert!(e.contains(needle), "replacing {from:?}: expected {needle:?} in {e}");
         }
-        let e = parse(&GOOD.replace("question = \"Which sequence has higher quality?\"\n", "")).unwrap_err();
+        let e = parse(&good().replace("question = \"Which sequence has higher quality?\"\n", "")).unwrap_err();
         assert!(e.to_string().contains("key `question`: missing field `question`"), "{e}");
     }
 
