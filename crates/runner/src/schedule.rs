@@ -108,26 +108,21 @@ pub(crate) mod tests {
     use std::collections::BTreeMap;
     use std::path::Path;
 
+    use study::testing::{ExperimentToml, pair};
+
     use super::*;
 
     pub(crate) fn definition(task: &str, repeats: u32) -> ExperimentDefinition {
-        let text = format!(
-            r#"format = "blurlab-experiment/1"
-name = "t"
-task = "{task}"
-question = "q"
-view = "mono"
-[stimuli]
-material = [2]
-speed = [2]
-shutter = [1, 2, 3, 4, 5]
-samples = [5]
-[pairs]
-repeats = {repeats}
-[[practice]]
-pair = ["M2-S2-T1-A1", "M2-S2-T5-A5"]
-"#
-        );
+        let text = ExperimentToml {
+            task: task.into(),
+            question: "q".into(),
+            shutter: vec![1, 2, 3, 4, 5],
+            samples: vec![5],
+            repeats: Some(repeats),
+            practice: vec![pair("M2-S2-T1-A1", "M2-S2-T5-A5")],
+            ..ExperimentToml::minimal()
+        }
+        .to_string();
         ExperimentDefinition::parse(Path::new("t.toml"), &text).unwrap()
     }
 

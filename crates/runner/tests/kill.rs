@@ -11,25 +11,23 @@ use runner::simulate::{ObserverModel, SimulateOptions, run_session, run_session_
 use study::StimulusId;
 use study::experiment::ExperimentDefinition;
 use study::response::SessionLog;
+use study::testing::{ExperimentToml, pair};
 
 const CHILD_ENV: &str = "BLURLAB_KILL_TEST_DIR";
 
 fn setup(dir: &Path) -> ExperimentDefinition {
-    let text = r#"format = "blurlab-experiment/1"
-name = "kill"
-task = "match"
-question = "Which matches?"
-view = "mono"
-[stimuli]
-material = [3]
-speed = [2]
-shutter = [1, 2, 3, 4, 5]
-samples = [5]
-[pairs]
-repeats = 2
-[[practice]]
-pair = ["M3-S2-T1-A5", "M3-S2-T5-A5"]
-"#;
+    let text = ExperimentToml {
+        name: "kill".into(),
+        task: "match".into(),
+        question: "Which matches?".into(),
+        material: vec![3],
+        shutter: vec![1, 2, 3, 4, 5],
+        samples: vec![5],
+        repeats: Some(2),
+        practice: vec![pair("M3-S2-T1-A5", "M3-S2-T5-A5")],
+        ..ExperimentToml::minimal()
+    }
+    .to_string();
     let path = dir.join("kill.toml");
     if !path.exists() {
         std::fs::write(&path, text).unwrap();

@@ -20,6 +20,7 @@ use runner::display::transform;
 use runner::stimuli::{StimulusSet, decode_frame, write_synthetic_set};
 use study::experiment::{DisplayMode, ExperimentDefinition};
 use study::response::SessionLog;
+use study::testing::{AttributeToml, BriefingToml, ExampleToml, ExperimentToml, PresentationToml, pair};
 use study::{StimulusId, View};
 
 fn definition(dir: &Path, task: &str) -> ExperimentDefinition {
@@ -29,34 +30,32 @@ fn definition(dir: &Path, task: &str) -> ExperimentDefinition {
 /// A definition showing `view` (`mono` or `stereo`) sequences.
 fn definition_of(dir: &Path, task: &str, view: &str) -> ExperimentDefinition {
     let suffix = if view == "stereo" { "-stereo" } else { "" };
-    let text = format!(
-        r#"format = "blurlab-experiment/1"
-name = "ui-{task}"
-task = "{task}"
-question = "Which one?"
-view = "{view}"
-[stimuli]
-material = [2]
-speed = [2]
-shutter = [3, 4, 5]
-samples = [5]
-[briefing]
-text = "Watch for noise."
-[[briefing.examples]]
-label = "Noise"
-description = "grain"
-stimulus = "M2-S2-T3-A1{suffix}"
-[[practice]]
-pair = ["M2-S2-T1-A1{suffix}", "M2-S2-T5-A5{suffix}"]
-[presentation]
-gap_ms = 100
-replay = true
-[[attributes]]
-key = "cg_experience"
-question = "Experience in computer graphics?"
-options = ["yes", "no"]
-"#
-    );
+    let stereo = |id: &str| format!("{id}{suffix}");
+    let text = ExperimentToml {
+        name: format!("ui-{task}"),
+        task: task.into(),
+        question: "Which one?".into(),
+        view: view.into(),
+        samples: vec![5],
+        repeats: None,
+        briefing: Some(BriefingToml {
+            text: "Watch for noise.".into(),
+            examples: vec![ExampleToml {
+                label: "Noise".into(),
+                description: Some("grain".into()),
+                stimulus: stereo("M2-S2-T3-A1"),
+            }],
+        }),
+        practice: vec![pair(&stereo("M2-S2-T1-A1"), &stereo("M2-S2-T5-A5"))],
+        presentation: Some(PresentationToml { gap_ms: Some(100), replay: Some(true), loops: None }),
+        keys: None,
+        attributes: vec![AttributeToml {
+            question: "Experience in computer graphics?".into(),
+            ..ExperimentToml::base().attributes.remove(0)
+        }],
+        ..ExperimentToml::base()
+    }
+    .to_string();
     let path = dir.join(format!("ui-{task}.toml"));
     std::fs::write(&path, &text).unwrap();
     ExperimentDefinition::read(&path).unwrap()

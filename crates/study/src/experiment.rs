@@ -16,6 +16,7 @@ use serde::Deserialize;
 use crate::fsio::sha256_hex;
 use crate::ids::{StimulusId, View};
 use crate::response::Task;
+use crate::toml_locate::{TomlError, backticked, key_line};
 
 /// Format tag of an experiment definition.
 pub const EXPERIMENT_FORMAT: &str = "blurlab-experiment/1";
@@ -205,17 +206,13 @@ impl ExperimentDefinition {
     /// Parses definition text read from `path`.
     pub fn parse(path: &Path, text: &str) -> Result<Self, ExperimentError> {
         let raw: RawDefinition = toml::from_str(text).map_err(|e| {
-            let line = e.span().map_or(1, |s| line_of_offset(text, s.start));
-            let message = e.message().to_owned();
-            let key = backticked(&message)
-                .or_else(|| e.span().map(|s| text[s].split('=').next().unwrap_or("").trim().to_owned()))
-                .unwrap_or_default();
-            ExperimentError::Invalid { path: path.to_owned(), line, key, message }
+            let at = TomlError::new(text, &e);
+            let key = backticked(&at.message).or_else(|| at.written_key(text).map(str::to_owned)).unwrap_or_default();
+            ExperimentError::Invalid { path: path.to_owned(), line: at.line, key, message: at.message }
         })?;
-        let locate = Locator { text };
         let bad = |table: &str, index: Option<usize>, key: &str, message: String| ExperimentError::Invalid {
             path: path.to_owned(),
-            line: locate.line(table, index, key),
+            line: key_line(text, table, index, key).unwrap_or(1),
             key: if table.is_empty() { key.to_owned() } else { format!("{table}.{key}") },
             message,
         };
@@ -460,55 +457,6 @@ pub enum ExperimentError {
     },
 }
 
-fn line_of_offset(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].matches('\n').count() + 1
-}
-
-fn backticked(message: &str) -> Option<String> {
-    let start = message.find('`')? + 1;
-    let len = message[start..].find('`')?;
-    Some(message[start..start + len].to_owned())
-}
-
-/// Finds the line of a key in a hand-written definition: scans table headers
-/// (`[t]`, `[[t]]`) and `key =` lines. Falls back to the table header, then line 1.
-struct Locator<'a> {
-    text: &'a str,
-}
-
-impl Locator<'_> {
-    fn line(&self, table: &str, index: Option<usize>, key: &str) -> usize {
-        let mut current = String::new();
-        let mut occurrence: usize = 0;
-        let mut table_line = None;
-        for (i, raw) in self.text.lines().enumerate() {
-            let line = raw.trim();
-            if let Some(h) = line.strip_prefix("[[").and_then(|l| l.split("]]").next()) {
-                current = h.trim().to_owned();
-                if current == table {
-                    occurrence += 1;
-                    if index.is_none_or(|n| n + 1 == occurrence) {
-                        table_line = Some(i + 1);
-                    }
-                }
-                continue;
-            }
-            if let Some(h) = line.strip_prefix('[').and_then(|l| l.split(']').next()) {
-                current = h.trim().to_owned();
-                if current == table {
-                    table_line = Some(i + 1);
-                }
-                continue;
-            }
-            let in_table = current == table && index.is_none_or(|n| n + 1 == occurrence);
-            if in_table && line.split('=').next().map(str::trim) == Some(key) && line.contains('=') {
-                return i + 1;
-            }
-        }
-        table_line.unwrap_or(1)
-    }
-}
-
 fn default_true() -> bool {
     true
 }
@@ -677,44 +625,12 @@ struct RawAttribute {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::ExperimentToml;
 
-    const GOOD: &str = r#"format = "blurlab-experiment/1"
-name = "t"
-task = "2afc"
-question = "Which sequence has higher quality?"
-view = "mono"
-
-[stimuli]
-material = [2]
-speed = [2]
-shutter = [3, 4, 5]
-samples = [3, 4, 5]
-
-[pairs]
-repeats = 2
-
-[briefing]
-text = "Look for noise."
-[[briefing.examples]]
-label = "Noise"
-stimulus = "M2-S2-T3-A1"
-
-[[practice]]
-pair = ["M2-S2-T1-A1", "M2-S2-T3-A5"]
-
-[presentation]
-gap_ms = 300
-loops = 2
-
-[keys]
-first = "ArrowLeft"
-second = "ArrowRight"
-
-[[attributes]]
-key = "cg_experience"
-question = "Do you work in computer graphics?"
-options = ["yes", "no"]
-"#;
+    /// The base fixture: a complete definition using every table.
+    fn good() -> String {
+        ExperimentToml::base().to_string()
+    }
 
     fn parse(text: &str) -> Result<ExperimentDefinition, ExperimentError> {
         ExperimentDefinition::parse(Path::new("experiments/t.toml"), text)
@@ -722,7 +638,7 @@ options = ["yes", "no"]
 
     #[test]
     fn parses_a_complete_definition() {
-        let d = parse(GOOD).unwrap();
+        let d = parse(&good()).unwrap();
         assert_eq!(d.task, Task::TwoAfc);
         assert_eq!(d.stimuli.len(), 9);
         assert_eq!(d.stimuli[0].to_string(), "M2-S2-T3-A3");
@@ -737,8 +653,9 @@ options = ["yes", "no"]
     }
 
     fn error_of(from: &str, to: &str) -> String {
-        assert!(GOOD.contains(from), "{from}");
-        parse(&GOOD.replacen(from, to, 1)).unwrap_err().to_string()
+        let good = good();
+        assert!(good.contains(from), "{from}");
+        parse(&good.replacen(from, to, 1)).unwrap_err().to_string()
     }
 
     #[test]
@@ -772,7 +689,7 @@ options = ["yes", "no"]
             assert!(e.starts_with("experiments/t.toml: line "), "{e}");
             assert!(e.contains(needle), "replacing {from:?}: expected {needle:?} in {e}");
         }
-        let e = parse(&GOOD.replace("question = \"Which sequence has higher quality?\"\n", "")).unwrap_err();
+        let e = parse(&good().replace("question = \"Which sequence has higher quality?\"\n", "")).unwrap_err();
         assert!(e.to_string().contains("key `question`: missing field `question`"), "{e}");
     }
 

@@ -14,6 +14,9 @@ pub mod scene;
 pub mod seed;
 pub mod select;
 pub mod stats;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
+pub mod toml_locate;
 
 pub use ids::{Factor, StimulusId, View};
 pub use method::Method;

@@ -100,6 +100,9 @@ fn missing_key_and_bad_values_name_the_key() {
     let text = shipped_text().replace("squares_pole_to_pole = 8\n", "");
     let (_, msg, _) = load_err(&text);
     assert!(msg.contains("factors.material[2].squares_pole_to_pole") && msg.contains("needs"), "{msg}");
+    // The missing key's line is that of the level's own `[[factors.material]]` header.
+    let m2 = text.lines().enumerate().filter(|(_, l)| l.trim() == "[[factors.material]]").nth(1).unwrap().0 + 1;
+    assert!(msg.contains(&format!(":{m2}:")), "{msg}");
 }
 
 #[test]

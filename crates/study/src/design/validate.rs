@@ -1,0 +1,301 @@
+//! Checks of a parsed design beyond its shape (ranges, required and forbidden keys per
+//! kind), and the conversions that need them: a material level into a [`Material`], the
+//! lighting table into a [`Lighting`] with its map's path resolved against the design's
+//! folder. Every error names the key and, where it is written, its line.
+
+use std::path::Path;
+
+use super::{Design, DesignError, EnvironmentKind, MaterialKind, MaterialLevel};
+use crate::scene::{Environment, Lighting, Material};
+
+impl Design {
+    pub(super) fn validate(&self) -> Result<(), DesignError> {
+        let s = &self.spec;
+        let positive = |table: &str, key: &str, v: f64| -> Result<(), DesignError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(self.invalid(table, None, key, format!("must be a positive number, found {v}")))
+            }
+        };
+        let albedo = |table: &str, index: Option<usize>, key: &str, a: [f64; 3]| -> Result<(), DesignError> {
+            if a.iter().all(|c| c.is_finite() && (0.0..=1.0).contains(c)) {
+                Ok(())
+            } else {
+                Err(self.invalid(table, index, key, format!("reflectances must lie in [0, 1], found {a:?}")))
+            }
+        };
+        if s.sequence.frames == 0 {
+            return Err(self.invalid("sequence", None, "frames", "must be at least 1"));
+        }
+        positive("sequence", "fps", s.sequence.fps)?;
+        if s.sequence.width == 0 || s.sequence.height == 0 {
+            return Err(self.invalid("sequence", None, "width", "image size must be at least 1x1"));
+        }
+        if !(0.0..1.0).contains(&s.sequence.frame_time_offset) {
+            return Err(self.invalid("sequence", None, "frame_time_offset", "must lie in [0, 1)"));
+        }
+        positive("viewing", "distance", s.viewing.distance)?;
+        if !(s.viewing.image_angle_degrees > 0.0 && s.viewing.image_angle_degrees < 180.0) {
+            return Err(self.invalid("viewing", None, "image_angle_degrees", "must lie in (0, 180)"));
+        }
+        positive("camera", "distance", s.camera.distance)?;
+        positive("camera", "focal_length", s.camera.focal_length)?;
+        positive("camera", "sensor_width", s.camera.sensor_width)?;
+        positive("sphere", "diameter", s.sphere.diameter)?;
+        let rise = s.camera.height - 0.5 * s.sphere.diameter;
+        if !s.camera.height.is_finite() || rise.abs() >= s.camera.distance {
+            return Err(self.invalid(
+                "camera",
+                None,
+                "height",
+                format!(
+                    "the camera must be less than `camera.distance` ({}) above the sphere's centre, found {rise}",
+                    s.camera.distance
+                ),
+            ));
+        }
+        if !(s.stereo.interocular.is_finite() && s.stereo.interocular >= 0.0) {
+            return Err(self.invalid("stereo", None, "interocular", "must be zero or positive"));
+        }
+        if !(s.sphere.offscreen_margin.is_finite() && s.sphere.offscreen_margin >= 0.0) {
+            return Err(self.invalid("sphere", None, "offscreen_margin", "must be zero or positive"));
+        }
+        if !s.sphere.start_orientation_degrees.iter().all(|a| a.is_finite()) {
+            return Err(self.invalid("sphere", None, "start_orientation_degrees", "must be finite"));
+        }
+        if !s.floor.height.is_finite() {
+            return Err(self.invalid("floor", None, "height", "must be finite"));
+        }
+        albedo("floor", None, "albedo", s.floor.albedo)?;
+        if !(s.lighting.intensity.is_finite() && s.lighting.intensity >= 0.0) {
+            return Err(self.invalid("lighting", None, "intensity", "must be zero or positive"));
+        }
+        if !s.lighting.rotation_degrees.is_finite() {
+            return Err(self.invalid("lighting", None, "rotation_degrees", "must be finite"));
+        }
+        if s.integrator.max_bounces < 3 {
+            return Err(self.invalid(
+                "integrator",
+                None,
+                "max_bounces",
+                "must be at least 3 (soft shadows and colour bleeding need indirect light)",
+            ));
+        }
+        if !s.exposure.stops.is_finite() {
+            return Err(self.invalid("exposure", None, "stops", "must be finite"));
+        }
+        for (factor, count) in [
+            ("material", s.factors.material.len()),
+            ("speed", s.factors.speed.len()),
+            ("shutter", s.factors.shutter.len()),
+            ("samples", s.factors.samples.len()),
+        ] {
+            if count == 0 || count > usize::from(u8::MAX) {
+                return Err(self.invalid("factors", None, factor, format!("needs 1 to 255 levels, found {count}")));
+            }
+        }
+        for (i, m) in s.factors.material.iter().enumerate() {
+            self.material_of(i, m)?;
+        }
+        for (i, v) in s.factors.speed.iter().enumerate() {
+            if !(v.degrees_per_second.is_finite() && v.degrees_per_second >= 0.0) {
+                return Err(self.invalid("factors.speed", Some(i), "degrees_per_second", "must be zero or positive"));
+            }
+        }
+        for (i, t) in s.factors.shutter.iter().enumerate() {
+            if !(0.0..=1.0).contains(&t.fraction) {
+                return Err(self.invalid(
+                    "factors.shutter",
+                    Some(i),
+                    "fraction",
+                    format!("must lie in [0, 1], found {}", t.fraction),
+                ));
+            }
+        }
+        for (i, a) in s.factors.samples.iter().enumerate() {
+            if a.samples_per_pixel == 0 {
+                return Err(self.invalid("factors.samples", Some(i), "samples_per_pixel", "must be at least 1"));
+            }
+        }
+        for (name, p) in &s.presets {
+            let table = format!("presets.{name}");
+            if p.width == Some(0) || p.height == Some(0) {
+                return Err(self.invalid(&table, None, "width", "image size must be at least 1x1"));
+            }
+            if p.frames == Some(0) {
+                return Err(self.invalid(&table, None, "frames", "must be at least 1"));
+            }
+            if let Some(spp) = &p.samples_per_pixel
+                && (spp.len() != s.factors.samples.len() || spp.contains(&0))
+            {
+                return Err(self.invalid(
+                    &table,
+                    None,
+                    "samples_per_pixel",
+                    format!("needs one count of at least 1 per A level ({}), found {spp:?}", s.factors.samples.len()),
+                ));
+            }
+            let frames = p.frames.unwrap_or(s.sequence.frames);
+            let first = p.first_frame.unwrap_or(0);
+            if u64::from(first) + u64::from(frames) > u64::from(s.sequence.frames) {
+                return Err(self.invalid(
+                    &table,
+                    None,
+                    "first_frame",
+                    format!(
+                        "frames {first}..{} lie beyond the sequence's {} frames",
+                        first + frames,
+                        s.sequence.frames
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn material_of(&self, index: usize, m: &MaterialLevel) -> Result<Material, DesignError> {
+        let table = "factors.material";
+        let need = |key: &str, v: Option<[f64; 3]>| -> Result<[f64; 3], DesignError> {
+            let a = v.ok_or_else(|| {
+                self.invalid(table, Some(index), key, format!("kind `{:?}` needs this key", m.kind).to_lowercase())
+            })?;
+            if a.iter().all(|c| c.is_finite() && (0.0..=1.0).contains(c)) {
+                Ok(a)
+            } else {
+                Err(self.invalid(table, Some(index), key, format!("reflectances must lie in [0, 1], found {a:?}")))
+            }
+        };
+        let forbid = |key: &str, present: bool| -> Result<(), DesignError> {
+            if present {
+                Err(self.invalid(
+                    table,
+                    Some(index),
+                    key,
+                    format!("not used by kind `{}`", format!("{:?}", m.kind).to_lowercase()),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        let count = |key: &str, v: Option<u32>| -> Result<u32, DesignError> {
+            v.filter(|&n| n >= 1).ok_or_else(|| self.invalid(table, Some(index), key, "needs a count of at least 1"))
+        };
+        match m.kind {
+            MaterialKind::Flat => {
+                for (key, present) in [
+                    ("albedo_a", m.albedo_a.is_some()),
+                    ("albedo_b", m.albedo_b.is_some()),
+                    ("squares_around", m.squares_around.is_some()),
+                    ("squares_pole_to_pole", m.squares_pole_to_pole.is_some()),
+                    ("base_frequency", m.base_frequency.is_some()),
+                    ("octaves", m.octaves.is_some()),
+                    ("seed", m.seed.is_some()),
+                ] {
+                    forbid(key, present)?;
+                }
+                Ok(Material::Flat { albedo: need("albedo", m.albedo)? })
+            }
+            MaterialKind::Checker => {
+                for (key, present) in [
+                    ("albedo", m.albedo.is_some()),
+                    ("base_frequency", m.base_frequency.is_some()),
+                    ("octaves", m.octaves.is_some()),
+                    ("seed", m.seed.is_some()),
+                ] {
+                    forbid(key, present)?;
+                }
+                Ok(Material::Checker {
+                    albedo_a: need("albedo_a", m.albedo_a)?,
+                    albedo_b: need("albedo_b", m.albedo_b)?,
+                    squares_around: count("squares_around", m.squares_around)?,
+                    squares_pole_to_pole: count("squares_pole_to_pole", m.squares_pole_to_pole)?,
+                })
+            }
+            MaterialKind::Noise => {
+                for (key, present) in [
+                    ("albedo", m.albedo.is_some()),
+                    ("squares_around", m.squares_around.is_some()),
+                    ("squares_pole_to_pole", m.squares_pole_to_pole.is_some()),
+                ] {
+                    forbid(key, present)?;
+                }
+                let base_frequency = m
+                    .base_frequency
+                    .filter(|f| f.is_finite() && *f > 0.0)
+                    .ok_or_else(|| self.invalid(table, Some(index), "base_frequency", "needs a positive frequency"))?;
+                Ok(Material::Noise {
+                    albedo_a: need("albedo_a", m.albedo_a)?,
+                    albedo_b: need("albedo_b", m.albedo_b)?,
+                    base_frequency,
+                    octaves: count("octaves", m.octaves)?,
+                    seed: m
+                        .seed
+                        .ok_or_else(|| self.invalid(table, Some(index), "seed", "kind `noise` needs this key"))?,
+                })
+            }
+        }
+    }
+
+    pub(super) fn resolve_lighting(&self) -> Result<Lighting, DesignError> {
+        let spec = &self.spec.lighting;
+        let env = &spec.environment;
+        let table = "lighting.environment";
+        let forbid = |key: &str, present: bool| {
+            if present {
+                Err(self.invalid(table, None, key, format!("not used by kind `{:?}`", env.kind).to_lowercase()))
+            } else {
+                Ok(())
+            }
+        };
+        let environment = match env.kind {
+            EnvironmentKind::Default => {
+                forbid("path", env.path.is_some())?;
+                forbid("radiance", env.radiance.is_some())?;
+                let width =
+                    env.width.ok_or_else(|| self.invalid(table, None, "width", "kind `default` needs this key"))?;
+                if width < 4 || width % 2 != 0 {
+                    return Err(self.invalid(
+                        table,
+                        None,
+                        "width",
+                        format!("must be an even number of at least 4, found {width}"),
+                    ));
+                }
+                Environment::Default { width }
+            }
+            EnvironmentKind::File => {
+                forbid("width", env.width.is_some())?;
+                forbid("radiance", env.radiance.is_some())?;
+                let rel =
+                    env.path.as_ref().ok_or_else(|| self.invalid(table, None, "path", "kind `file` needs this key"))?;
+                let folder = self.path.parent().unwrap_or(Path::new(""));
+                let path = folder.join(rel);
+                if !path.is_file() {
+                    return Err(self.invalid(
+                        table,
+                        None,
+                        "path",
+                        format!(
+                            "environment map `{}` does not exist (paths are relative to the design file's folder)",
+                            path.display()
+                        ),
+                    ));
+                }
+                Environment::File { path }
+            }
+            EnvironmentKind::Uniform => {
+                forbid("width", env.width.is_some())?;
+                forbid("path", env.path.is_some())?;
+                let radiance = env
+                    .radiance
+                    .ok_or_else(|| self.invalid(table, None, "radiance", "kind `uniform` needs this key"))?;
+                if !radiance.iter().all(|c| c.is_finite() && *c >= 0.0) {
+                    return Err(self.invalid(table, None, "radiance", "must be finite and non-negative"));
+                }
+                Environment::Uniform { radiance }
+            }
+        };
+        Ok(Lighting { environment, intensity: spec.intensity, rotation_y: spec.rotation_degrees.to_radians() })
+    }
+}
