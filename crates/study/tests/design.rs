@@ -277,3 +277,17 @@ fn seeds_follow_the_master_seed_and_differ_per_eye_and_frame() {
     assert_eq!(a, d.frame_scene(&id, 3).unwrap());
     assert!(d.frame_scene(&id, 120).unwrap_err().to_string().contains("frame 120"));
 }
+
+#[test]
+fn the_method_defaults_to_the_tracer_and_a_design_may_name_another() {
+    assert_eq!(shipped().method(), study::Method::Tracer);
+    let text = shipped_text() + "\n[method]\nkind = \"guertin\"\n";
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.toml");
+    std::fs::write(&path, &text).unwrap();
+    assert_eq!(Design::load(&path).unwrap().method(), study::Method::Guertin);
+    let bad = text.replace("kind = \"guertin\"", "kind = \"raytracer\"");
+    let (_, shown, _) = load_err(&bad);
+    assert!(shown.contains(&format!(":{}:", line_of(&bad, "kind = \"raytracer\""))), "{shown}");
+    assert!(shown.contains("key `method.kind`") && shown.contains("raytracer"), "{shown}");
+}

@@ -84,7 +84,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         design: &design,
         preset,
         ids: ids.into_iter().collect(),
-        method: study::Method::Tracer,
+        method: design.method(),
         out: args.set.clone(),
         resume: true,
         exr: false,

@@ -27,7 +27,8 @@ fn parse_method(text: &str) -> Result<Method, String> {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let method = args.method.unwrap_or(Method::Tracer);
+    let Frame { id, scene, design, .. } = args.frame.resolve()?;
+    let method = args.method.unwrap_or_else(|| design.method());
     if !render::method::is_available(method) {
         return Err(BadInput(format!("--method {method}: {}", render::RenderError::NotAvailable(method))).into());
     }
@@ -37,7 +38,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some("png") => false,
         _ => return Err(BadInput(format!("--out {}: the file must end in .exr or .png", args.out.display())).into()),
     };
-    let Frame { id, scene, .. } = args.frame.resolve()?;
     let env = render::env::EnvironmentMap::from_lighting(&scene.lighting).map_err(|e| BadInput(e.to_string()))?;
     let started = std::time::Instant::now();
     let rendered = render::render_frame(method, &scene, &env).map_err(|e| BadInput(e.to_string()))?;

@@ -250,7 +250,7 @@ fn render(a: RenderArgs) -> anyhow::Result<()> {
         design: &design,
         preset,
         ids,
-        method: study::Method::Tracer,
+        method: design.method(),
         out: a.out.clone(),
         resume: a.resume,
         exr: a.exr,

@@ -177,6 +177,12 @@ impl Design {
         Ok(design)
     }
 
+    /// The rendering method the design names for its set (the tracer unless `[method]` says
+    /// otherwise).
+    pub fn method(&self) -> crate::Method {
+        self.spec.method.kind
+    }
+
     /// The design's name.
     pub fn name(&self) -> &str {
         &self.spec.name

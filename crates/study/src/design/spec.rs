@@ -7,6 +7,7 @@ use std::collections::BTreeMap;
 
 use serde::Deserialize;
 
+use crate::method::MethodSpec;
 use crate::scene::{StereoConvergence, ToneMap};
 
 /// How each frame's shutter interval is placed relative to the frame time.
@@ -291,6 +292,9 @@ pub struct DesignSpec {
     pub exposure: ExposureSpec,
     /// Factor levels.
     pub factors: FactorsSpec,
+    /// The set's rendering method (`[method] kind = "tracer"` when absent).
+    #[serde(default)]
+    pub method: MethodSpec,
     /// Named presets (`full` applies none of its overrides unless given).
     #[serde(default)]
     pub presets: BTreeMap<String, PresetSpec>,
