@@ -18,6 +18,8 @@
 //!   binary and listed in [`INCLUDES`]) resolved from `//! include NAME` lines, plus typed
 //!   constants emitted as `const` declarations with exact literals; [`validate_wgsl`] checks
 //!   the result with naga on the CPU.
+//! - [`GpuContext::run_kernel`]: a one-shot compute kernel over an input and an output
+//!   storage buffer, read back (the shape of every twin test).
 //! - The one rule for GPU tests: [`test_context`] returns a device or, without one, prints
 //!   `SKIPPED: no GPU adapter (...)` to the process's stderr (visible in plain `cargo test`
 //!   output), unless `BLURLAB_REQUIRE_GPU=1` ([`require_gpu`]), where it panics instead.
@@ -27,6 +29,7 @@
 
 mod device;
 mod error;
+mod kernel;
 mod readback;
 mod testing;
 mod timer;

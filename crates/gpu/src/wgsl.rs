@@ -25,6 +25,8 @@ use crate::GpuError;
 pub const INCLUDES: &[(&str, &str)] = &[
     // sRGB transfer functions, the WGSL twin of `study::color`.
     ("srgb", include_str!("../shaders/srgb.wgsl")),
+    // Robust numerics, the WGSL twin of `render::numeric`.
+    ("numeric", include_str!("../shaders/numeric.wgsl")),
 ];
 
 /// A typed constant's WGSL type and value, as text.
