@@ -242,7 +242,7 @@ mod tests {
         let e = assembler().assemble("main.wgsl", "fn f() {}\n\n//! include nope\n").unwrap_err();
         assert!(matches!(&e, GpuError::Include { file, line: 3, .. } if file == "main.wgsl"), "{e:?}");
         let text = e.to_string();
-        assert!(text.starts_with("main.wgsl:3: unknown include \"nope\" (known: srgb, a, b, c)"), "{text}");
+        assert!(text.starts_with("main.wgsl:3: unknown include \"nope\" (known: srgb, numeric, a, b, c)"), "{text}");
         // Inside an included file: that file and its line.
         let e = WgslAssembler::new()
             .with_include("x", "fn x() {}\n//! include y\n")
