@@ -248,7 +248,7 @@ mod tests {
             .with_include("x", "fn x() {}\n//! include y\n")
             .assemble("main.wgsl", "//! include x\n")
             .unwrap_err();
-        assert_eq!(e.to_string(), "x.wgsl:2: unknown include \"y\" (known: srgb, x)");
+        assert_eq!(e.to_string(), "x.wgsl:2: unknown include \"y\" (known: srgb, numeric, x)");
         for bad in ["//! include", "//! include a b", "  //! include\ta\tb"] {
             let e = assembler().assemble("m.wgsl", bad).unwrap_err().to_string();
             assert!(e.starts_with("m.wgsl:1: malformed include line"), "{bad}: {e}");
