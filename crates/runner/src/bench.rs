@@ -19,15 +19,17 @@ use crate::stimuli::{Decoded, Sequence, decode_sequence_for};
 /// ([`FrameUploader`]).
 pub struct Gpu {
     uploader: FrameUploader,
-    /// Adapter name and backend.
+    /// Adapter name and backend (`"NAME (BACKEND)"`).
     pub adapter: String,
 }
 
 impl Gpu {
-    /// The default adapter (on machines without a GPU, Mesa's lavapipe when installed).
-    pub fn new() -> Result<Gpu, String> {
-        let (device, queue, adapter) = crate::gpu::headless_device()?;
-        Ok(Gpu { uploader: FrameUploader::new(device, queue), adapter })
+    /// A device from the gpu crate: a hardware adapter, else a software one (on machines
+    /// without a GPU, Mesa's lavapipe when installed).
+    pub fn new() -> Result<Gpu, gpu::GpuError> {
+        let ctx = gpu::acquire(gpu::AdapterChoice::HardwareThenSoftware, &gpu::DeviceRequest::default())?;
+        let adapter = ctx.info.short();
+        Ok(Gpu { uploader: FrameUploader::new(ctx.device, ctx.queue), adapter })
     }
 
     /// Uploads (and, where the GPU composes the display mode, composes) every frame as its own

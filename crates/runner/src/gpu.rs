@@ -16,8 +16,10 @@
 //! polarised monitor.
 //!
 //! The window uploads with a [`FrameUploader`] on its loader thread with eframe's device;
-//! `blurlab bench playback` uses the same uploader on a headless device ([`headless_device`]),
-//! so the benchmark times the window's path.
+//! `blurlab bench playback` uses the same uploader on a headless device from the gpu crate
+//! ([`gpu::acquire`]), so the benchmark times the window's path. `stimulus.wgsl` is assembled
+//! by the gpu crate's [`gpu::WgslAssembler`] (the shared sRGB include, the Dubois matrices as
+//! typed constants); read-back for tests is [`gpu::read_texture`].
 
 use eframe::egui_wgpu;
 use eframe::wgpu;
@@ -41,29 +43,12 @@ pub fn composes_on_gpu(mode: DisplayMode, view: View) -> bool {
         )
 }
 
-/// A device without a window (benchmarks and tests): the default adapter, which on machines
-/// without a GPU is Mesa's lavapipe when installed. Returns the device, its queue and
-/// `"NAME (BACKEND)"`.
-pub fn headless_device() -> Result<(wgpu::Device, wgpu::Queue, String), String> {
-    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
-        .map_err(|e| format!("no wgpu adapter: {e}"))?;
-    let info = adapter.get_info();
-    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default()))
-        .map_err(|e| format!("no wgpu device: {e}"))?;
-    Ok((device, queue, format!("{} ({:?})", info.name, info.backend)))
-}
-
-/// The WGSL source of the stimulus pipelines with the Dubois matrices filled in.
-pub fn stimulus_wgsl() -> String {
-    let row = |m: &[[f32; 3]; 3], r: usize| format!("{:?}, {:?}, {:?}", m[r][0], m[r][1], m[r][2]);
-    include_str!("stimulus.wgsl")
-        .replace("/*L0*/", &row(&DUBOIS_LEFT, 0))
-        .replace("/*L1*/", &row(&DUBOIS_LEFT, 1))
-        .replace("/*L2*/", &row(&DUBOIS_LEFT, 2))
-        .replace("/*R0*/", &row(&DUBOIS_RIGHT, 0))
-        .replace("/*R1*/", &row(&DUBOIS_RIGHT, 1))
-        .replace("/*R2*/", &row(&DUBOIS_RIGHT, 2))
+/// The WGSL source of the stimulus pipelines: `stimulus.wgsl` with the shared sRGB include
+/// and the Dubois matrices declared as typed constants (`DUBOIS_LEFT`, `DUBOIS_RIGHT`).
+pub fn stimulus_wgsl() -> Result<String, gpu::GpuError> {
+    let mut assembler = gpu::WgslAssembler::new();
+    assembler.constant_mat3x3("DUBOIS_LEFT", DUBOIS_LEFT).constant_mat3x3("DUBOIS_RIGHT", DUBOIS_RIGHT);
+    assembler.assemble("stimulus.wgsl", include_str!("stimulus.wgsl"))
 }
 
 /// How a frame texture becomes the pixels in its rectangle.
@@ -122,9 +107,12 @@ pub struct StimulusPipelines {
 impl StimulusPipelines {
     /// Pipelines drawing into targets of `format` (egui's framebuffer format in the window).
     pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> Self {
+        // The source and the constants are fixed at compile time (finite matrices, known
+        // includes); `stimulus_wgsl_assembles_and_validates` checks that this cannot fail.
+        let wgsl = stimulus_wgsl().expect("stimulus.wgsl assembles (checked by its test)");
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("stimulus"),
-            source: wgpu::ShaderSource::Wgsl(stimulus_wgsl().into()),
+            source: wgpu::ShaderSource::Wgsl(wgsl.into()),
         });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("stimulus"),
@@ -297,7 +285,7 @@ impl StimulusPipelines {
             self.draw(&mut pass, bind, draw, filter);
         }
         gpu.queue().submit([encoder.finish()]);
-        read_back(gpu.device(), gpu.queue(), &target)
+        gpu::read_texture(gpu.device(), gpu.queue(), &target).map_err(RunnerError::from)
     }
 }
 
@@ -410,42 +398,6 @@ impl FrameUploader {
     }
 }
 
-/// Reads a texture with 4 bytes per texel back as tightly packed rows.
-pub fn read_back(device: &wgpu::Device, queue: &wgpu::Queue, texture: &wgpu::Texture) -> Result<Vec<u8>, RunnerError> {
-    let (w, h) = (texture.width(), texture.height());
-    let row = 4 * w;
-    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-    let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("read back"),
-        size: u64::from(padded) * u64::from(h),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-    encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: Some(h) },
-        },
-        texture.size(),
-    );
-    queue.submit([encoder.finish()]);
-    let gpu_error = |message: String| RunnerError::Input { what: "GPU read-back".into(), message };
-    let (tx, rx) = std::sync::mpsc::channel();
-    buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-        let _ = tx.send(r);
-    });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| gpu_error(e.to_string()))?;
-    rx.recv().map_err(|e| gpu_error(e.to_string()))?.map_err(|e| gpu_error(e.to_string()))?;
-    let data = buffer.slice(..).get_mapped_range().map_err(|e| gpu_error(e.to_string()))?;
-    let mut out = Vec::with_capacity(row as usize * h as usize);
-    for y in 0..h as usize {
-        out.extend_from_slice(&data[y * padded as usize..y * padded as usize + row as usize]);
-    }
-    Ok(out)
-}
-
 #[cfg(test)]
 mod tests {
     use rand::{Rng, SeedableRng};
@@ -453,23 +405,33 @@ mod tests {
     use super::*;
     use crate::display::{Rgba8, line_eye, linear_to_srgb, row_interleave_on_screen, srgb_to_linear, transform};
 
-    fn require_gpu() -> bool {
-        std::env::var("BLURLAB_REQUIRE_GPU").is_ok_and(|v| v == "1")
+    /// An uploader on a test device for `test`, or `None` after the gpu crate's
+    /// `SKIPPED: no GPU adapter` line (a panic with BLURLAB_REQUIRE_GPU=1).
+    fn device(test: &str) -> Option<FrameUploader> {
+        gpu::test_context(&format!("runner::gpu::tests::{test}")).map(|ctx| FrameUploader::new(ctx.device, ctx.queue))
     }
 
-    /// A headless device, or `None` (the test skips, saying so) unless BLURLAB_REQUIRE_GPU=1.
-    fn device() -> Option<FrameUploader> {
-        match headless_device() {
-            Ok((device, queue, name)) => {
-                eprintln!("GPU test on {name}");
-                Some(FrameUploader::new(device, queue))
-            }
-            Err(e) if !require_gpu() => {
-                eprintln!("skipped: {e}; set BLURLAB_REQUIRE_GPU=1 to require a GPU adapter");
-                None
-            }
-            Err(e) => panic!("BLURLAB_REQUIRE_GPU=1 but {e}"),
-        }
+    fn read_back(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        texture: &wgpu::Texture,
+    ) -> Result<Vec<u8>, gpu::GpuError> {
+        gpu::read_texture(device, queue, texture)
+    }
+
+    #[test]
+    fn stimulus_wgsl_assembles_and_validates() {
+        let wgsl = stimulus_wgsl().unwrap();
+        // No placeholder is left, the sRGB curve comes from the include (once) and the
+        // matrices are declared as typed constants with their exact values.
+        assert!(!wgsl.contains("/*"), "{wgsl}");
+        assert_eq!(wgsl.matches("fn srgb_decode3(").count(), 1);
+        assert_eq!(wgsl.matches("pow(").count(), 4, "only srgb.wgsl's four pow calls");
+        assert!(
+            wgsl.contains("const DUBOIS_LEFT: mat3x3<f32> = mat3x3<f32>(vec3<f32>(0.437f, -0.062f, -0.048f), "),
+            "{wgsl}"
+        );
+        gpu::validate_wgsl("stimulus.wgsl", &wgsl).unwrap();
     }
 
     /// The target formats the twin tests draw into: two that store the codes given (egui's
@@ -537,7 +499,7 @@ mod tests {
 
     #[test]
     fn anaglyph_pipeline_agrees_with_its_cpu_twin_within_one_code() {
-        let Some(gpu) = device() else { return };
+        let Some(gpu) = device("anaglyph_pipeline_agrees_with_its_cpu_twin_within_one_code") else { return };
         // An odd eye width and height: the draw covers the whole target, nothing more.
         let (eye, h) = (101, 37);
         let frames = stereo_frames(eye, h, 2, 11);
@@ -583,7 +545,7 @@ mod tests {
 
     #[test]
     fn frames_shown_unchanged_are_uploaded_and_drawn_byte_for_byte() {
-        let Some(gpu) = device() else { return };
+        let Some(gpu) = device("frames_shown_unchanged_are_uploaded_and_drawn_byte_for_byte") else { return };
         let frames = stereo_frames(7, 5, 3, 3);
         let textures = gpu.upload(&decoded(&frames, None)).unwrap();
         for format in [wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureFormat::Rgba8UnormSrgb] {
@@ -645,7 +607,7 @@ mod tests {
     /// every screen line must show the eye of its parity, whatever the scale and the top.
     #[test]
     fn row_interleave_pipeline_takes_each_screen_line_from_its_eye() {
-        let Some(gpu) = device() else { return };
+        let Some(gpu) = device("row_interleave_pipeline_takes_each_screen_line_from_its_eye") else { return };
         let (eye, h) = (101, 37);
         let frames = stereo_frames(eye, h, 2, 9);
         let decoded = decoded(&frames, Some(DisplayMode::RowInterleaved));
@@ -748,7 +710,7 @@ mod tests {
 
     #[test]
     fn composed_pipelines_agree_with_their_cpu_twin_within_one_code() {
-        let Some(gpu) = device() else { return };
+        let Some(gpu) = device("composed_pipelines_agree_with_their_cpu_twin_within_one_code") else { return };
         // An odd eye width and height: the squeezes leave a black last column or row.
         let (eye, h) = (101, 37);
         let frames = stereo_frames(eye, h, 2, 5);

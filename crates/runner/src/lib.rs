@@ -79,6 +79,9 @@ pub enum RunnerError {
         /// Why.
         message: String,
     },
+    /// The GPU failed (no adapter, device lost, read-back).
+    #[error(transparent)]
+    Gpu(#[from] ::gpu::GpuError),
     /// A file or folder could not be read or written.
     #[error("{path}: {source}")]
     Io {
@@ -94,7 +97,7 @@ impl RunnerError {
     /// by the machine (I/O). The CLI maps it to exit code 2.
     pub fn is_bad_input(&self) -> bool {
         match self {
-            RunnerError::Io { .. } => false,
+            RunnerError::Io { .. } | RunnerError::Gpu(_) => false,
             RunnerError::Response(study::response::ResponseError::Io { .. }) => false,
             RunnerError::Experiment(study::experiment::ExperimentError::Io { .. }) => true,
             _ => true,

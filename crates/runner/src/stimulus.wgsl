@@ -4,10 +4,11 @@
 // (`fs_compose`), composed here at draw time.
 //
 // The anaglyph is the GPU twin of `display::anaglyph_with` (crates/runner/src/display.rs):
-// the same matrices (substituted from Rust by `gpu.rs`) and the same order of sums, in linear
-// light. The frame's sRGB codes are decoded here by the formula (the texture unit's sRGB
-// decoding is an approximation: on lavapipe it put dark output 2 codes off); the result is
-// encoded here (`fs_anaglyph_encode`, for targets that store the codes given, like egui's
+// the same matrices (`DUBOIS_LEFT` and `DUBOIS_RIGHT`, typed constants the assembler declares
+// from `display::DUBOIS_*` in `gpu.rs`) and the same order of sums, in linear light. The
+// frame's sRGB codes are decoded here by the formula of the shared include `srgb.wgsl` (the
+// texture unit's sRGB decoding is an approximation: on lavapipe it put dark output 2 codes
+// off); the result is encoded here (`fs_anaglyph_encode`, for targets that store the codes given, like egui's
 // gamma-space framebuffers) or by the target (`fs_anaglyph_linear`, for sRGB targets). At an
 // integer scale with a nearest sampler each output pixel comes from one texel pair, as on
 // the CPU; with a filtering sampler (a scale that is not an integer) each eye's codes are
@@ -31,16 +32,10 @@
 // the copy's texels through the view `gpu.rs` binds for each target. So the composition is
 // exact at every scale; only the weights' precision differs from the texture unit's.
 
+//! include srgb
+
 @group(0) @binding(0) var image: texture_2d<f32>;
 @group(0) @binding(1) var image_sampler: sampler;
-
-// Rows of the matrices (output R, G, B), one vector per row.
-const L0 = vec3<f32>(/*L0*/);
-const L1 = vec3<f32>(/*L1*/);
-const L2 = vec3<f32>(/*L2*/);
-const R0 = vec3<f32>(/*R0*/);
-const R1 = vec3<f32>(/*R1*/);
-const R2 = vec3<f32>(/*R2*/);
 
 struct VertexOutput {
     @builtin(position) position: vec4<f32>,
@@ -64,13 +59,12 @@ fn fs_copy(in: VertexOutput) -> @location(0) vec4<f32> {
     return textureSampleLevel(image, image_sampler, in.uv, 0.0);
 }
 
-fn mix_row(a: vec3<f32>, b: vec3<f32>, l: vec3<f32>, r: vec3<f32>) -> f32 {
-    return (a.x * l.x + b.x * r.x) + (a.y * l.y + b.y * r.y) + (a.z * l.z + b.z * r.z);
-}
-
-fn linear(c: vec3<f32>) -> vec3<f32> {
-    let higher = pow((c + 0.055) / 1.055, vec3<f32>(2.4));
-    return select(higher, c / 12.92, c <= vec3<f32>(0.04045));
+// Output channel `c` of the anaglyph: row `c` of each matrix (element `[k][c]`: the
+// matrices are column-major) times the eye's linear values, summed in the CPU's order.
+fn mix_row(c: u32, l: vec3<f32>, r: vec3<f32>) -> f32 {
+    let a = DUBOIS_LEFT;
+    let b = DUBOIS_RIGHT;
+    return (a[0][c] * l.x + b[0][c] * r.x) + (a[1][c] * l.y + b[1][c] * r.y) + (a[2][c] * l.z + b[2][c] * r.z);
 }
 
 // The anaglyph in linear light, clamped to [0, 1].
@@ -78,9 +72,9 @@ fn anaglyph(uv: vec2<f32>) -> vec3<f32> {
     // The left eye is the left half of the frame; a filtering sampler stays within the eye.
     let half_texel = 0.5 / f32(textureDimensions(image, 0).x);
     let left = vec2<f32>(clamp(0.5 * uv.x, half_texel, 0.5 - half_texel), uv.y);
-    let l = linear(textureSampleLevel(image, image_sampler, left, 0.0).rgb);
-    let r = linear(textureSampleLevel(image, image_sampler, left + vec2<f32>(0.5, 0.0), 0.0).rgb);
-    let v = vec3<f32>(mix_row(L0, R0, l, r), mix_row(L1, R1, l, r), mix_row(L2, R2, l, r));
+    let l = srgb_decode3(textureSampleLevel(image, image_sampler, left, 0.0).rgb);
+    let r = srgb_decode3(textureSampleLevel(image, image_sampler, left + vec2<f32>(0.5, 0.0), 0.0).rgb);
+    let v = vec3<f32>(mix_row(0u, l, r), mix_row(1u, l, r), mix_row(2u, l, r));
     return clamp(v, vec3<f32>(0.0), vec3<f32>(1.0));
 }
 
@@ -91,11 +85,8 @@ fn fs_anaglyph_linear(in: VertexOutput) -> @location(0) vec4<f32> {
 
 @fragment
 fn fs_anaglyph_encode(in: VertexOutput) -> @location(0) vec4<f32> {
-    let l = anaglyph(in.uv);
-    let higher = 1.055 * pow(l, vec3<f32>(1.0 / 2.4)) - 0.055;
-    let c = select(higher, l * 12.92, l <= vec3<f32>(0.0031308));
     // Rounded to a code here, so the target's conversion keeps it.
-    return vec4<f32>(floor(c * 255.0 + 0.5) / 255.0, 1.0);
+    return vec4<f32>(encode(anaglyph(in.uv)), 1.0);
 }
 
 // Which composition `fs_compose` draws: 1 sbs-half, 2 top-bottom, 3 row-interleaved.
@@ -105,10 +96,9 @@ override FILTERED: bool = false;
 // Whether the target is sRGB (it encodes linear values) or stores the codes given.
 override SRGB_TARGET: bool = false;
 
+// Linear light, clamped to [0, 1], to the nearest code (as codes / 255).
 fn encode(l: vec3<f32>) -> vec3<f32> {
-    let v = clamp(l, vec3<f32>(0.0), vec3<f32>(1.0));
-    let higher = 1.055 * pow(v, vec3<f32>(1.0 / 2.4)) - 0.055;
-    let c = select(higher, v * 12.92, v <= vec3<f32>(0.0031308));
+    let c = srgb_encode3(clamp(l, vec3<f32>(0.0), vec3<f32>(1.0)));
     return floor(c * 255.0 + 0.5) / 255.0;
 }
 
@@ -120,7 +110,7 @@ fn eye_texel(eye: i32, x: i32, y: i32) -> vec4<f32> {
 
 // `display::average`: two pixels averaged in linear light, as codes / 255.
 fn average(a: vec4<f32>, b: vec4<f32>) -> vec4<f32> {
-    let rgb = encode((linear(a.rgb) + linear(b.rgb)) * 0.5);
+    let rgb = encode((srgb_decode3(a.rgb) + srgb_decode3(b.rgb)) * 0.5);
     let alpha = floor((round(a.a * 255.0) + round(b.a * 255.0) + 1.0) / 2.0) / 255.0;
     return vec4<f32>(rgb, alpha);
 }
@@ -161,7 +151,7 @@ fn composed(o: vec2<i32>, eye: i32) -> vec4<f32> {
 fn target_value(o: vec2<i32>, eye: i32) -> vec4<f32> {
     let c = composed(clamp(o, vec2<i32>(0), out_size() - 1), eye);
     if SRGB_TARGET {
-        return vec4<f32>(linear(c.rgb), c.a);
+        return vec4<f32>(srgb_decode3(c.rgb), c.a);
     }
     return c;
 }

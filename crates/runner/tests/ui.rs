@@ -4,8 +4,9 @@
 //! assertions read the session CSV.
 //!
 //! The window logic runs headless (no GPU). The step that renders a trial's textures through
-//! wgpu needs an adapter: with `BLURLAB_REQUIRE_GPU=1` a missing adapter fails the test,
-//! otherwise that step is skipped with a message.
+//! wgpu needs an adapter and follows the gpu crate's rule: with `BLURLAB_REQUIRE_GPU=1` a
+//! missing adapter fails the test, otherwise that step is skipped with a
+//! `SKIPPED: no GPU adapter ...` line in the test output.
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -146,10 +147,6 @@ fn rows(path: &Path) -> Vec<study::response::TrialRow> {
     SessionLog::read(path).unwrap().rows.into_iter().map(|(_, r)| r).collect()
 }
 
-fn require_gpu() -> bool {
-    std::env::var("BLURLAB_REQUIRE_GPU").is_ok_and(|v| v == "1")
-}
-
 #[test]
 fn scripted_participant_2afc_practice_replay_quit_and_resume() {
     let dir = tempfile::tempdir().unwrap();
@@ -185,17 +182,18 @@ fn scripted_participant_2afc_practice_replay_quit_and_resume() {
     // Practice trial: presentation, then answer by key.
     until(&mut h, "presenting");
     assert!(h.query_by_label("Practice trial (not counted)").is_some());
-    // Rendering the textures of a trial through wgpu (GPU or lavapipe).
-    match h.render() {
-        Ok(image) => {
-            // The synthetic frame's grey field (60, 60, 60) is on screen, scaled up.
-            let grey = image.pixels().filter(|p| p.0[..3].iter().all(|&c| c.abs_diff(60) <= 1)).count();
-            assert!(grey > 10_000, "{grey} stimulus pixels rendered");
+    // Rendering the textures of a trial through wgpu (GPU or lavapipe). The harness's renderer
+    // panics without an adapter, so the gpu crate's rule decides first whether there is one.
+    let step = "scripted_participant_2afc_practice_replay_quit_and_resume (rendering the trial through wgpu)";
+    if gpu::test_context(step).is_some() {
+        match h.render() {
+            Ok(image) => {
+                // The synthetic frame's grey field (60, 60, 60) is on screen, scaled up.
+                let grey = image.pixels().filter(|p| p.0[..3].iter().all(|&c| c.abs_diff(60) <= 1)).count();
+                assert!(grey > 10_000, "{grey} stimulus pixels rendered");
+            }
+            Err(e) => gpu::skip_or_fail(step, &e),
         }
-        Err(e) if !require_gpu() => {
-            eprintln!("skipped: rendering the trial through wgpu ({e}); set BLURLAB_REQUIRE_GPU=1 to require it")
-        }
-        Err(e) => panic!("BLURLAB_REQUIRE_GPU=1 but rendering failed: {e}"),
     }
     until(&mut h, "answer");
     h.key_press(Key::Num1);
@@ -408,9 +406,7 @@ fn a_given_refresh_rate_overrides_the_measurement_and_both_are_logged() {
 /// the side-by-side frame when it is drawn.
 #[test]
 fn anaglyph_trial_is_composed_on_the_gpu_when_drawn() {
-    if let Err(e) = runner::gpu::headless_device() {
-        assert!(!require_gpu(), "BLURLAB_REQUIRE_GPU=1 but {e}");
-        eprintln!("skipped: drawing an anaglyph trial through wgpu ({e}); set BLURLAB_REQUIRE_GPU=1 to require it");
+    if gpu::test_context("anaglyph_trial_is_composed_on_the_gpu_when_drawn").is_none() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -93,7 +93,7 @@ fn measure(args: &Args, work: &Path, threads: usize) -> anyhow::Result<serde_jso
             let name = g.adapter.clone();
             (Some(g), serde_json::Value::String(name))
         }
-        Err(e) => (None, serde_json::json!({ "unavailable": e })),
+        Err(e) => (None, serde_json::json!({ "unavailable": e.to_string() })),
     };
     // Mono sequences shown in mono, then the stereo sequences in every stereo display mode
     // (sbs-full first: its trial is the one whose memory is reported).
