@@ -145,6 +145,8 @@ impl PixelSampler32 {
 
 #[cfg(test)]
 mod tests {
+    use study::stats::correlation;
+
     use super::*;
 
     /// A few pixels of two eyes, corner and interior, of a 640-wide image.
@@ -214,16 +216,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    /// Pearson correlation of two sequences.
-    fn correlation(a: &[f64], b: &[f64]) -> f64 {
-        let n = a.len() as f64;
-        let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
-        let cov: f64 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
-        let va: f64 = a.iter().map(|x| (x - ma).powi(2)).sum();
-        let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
-        cov / (va * vb).sqrt()
     }
 
     #[test]
