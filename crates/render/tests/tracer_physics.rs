@@ -15,6 +15,7 @@ use study::scene::{
     ToneMap,
 };
 use study::seed::Eye;
+use study::stats::correlation;
 
 const L: f64 = 0.8;
 
@@ -456,15 +457,6 @@ fn a_texture_feature_moves_as_rolling_predicts() {
     let (err_roll, err_slide) = (err_roll / f64::from(n), err_slide / f64::from(n));
     assert!(n > 500, "{n} pixels");
     assert!(err_roll < 0.06 && err_roll < 0.3 * err_slide, "rolling error {err_roll}, sliding error {err_slide}");
-}
-
-fn correlation(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len() as f64;
-    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
-    let cov: f64 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
-    let va: f64 = a.iter().map(|x| (x - ma).powi(2)).sum();
-    let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
-    cov / (va * vb).sqrt()
 }
 
 /// The noise-textured sphere seen from 1.2 m under a small default map: a textured,

@@ -99,11 +99,30 @@ pub fn median(values: &[f64]) -> f64 {
     }
 }
 
+/// The Pearson correlation of two equally long samples (NaN when either is constant).
+pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len(), "correlation of samples of different lengths");
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let cov: f64 = a.iter().zip(b).map(|(x, y)| (x - ma) * (y - mb)).sum();
+    let va: f64 = a.iter().map(|x| (x - ma).powi(2)).sum();
+    let vb: f64 = b.iter().map(|y| (y - mb).powi(2)).sum();
+    cov / (va * vb).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use proptest::prelude::*;
 
     use super::*;
+
+    #[test]
+    fn correlation_of_lines_and_of_a_symmetric_pair() {
+        let a = [1.0, 2.0, 3.0, 4.0];
+        assert!((correlation(&a, &[3.0, 5.0, 7.0, 9.0]) - 1.0).abs() < 1e-15);
+        assert!((correlation(&a, &[-1.0, -2.0, -3.0, -4.0]) + 1.0).abs() < 1e-15);
+        assert_eq!(correlation(&[-1.0, 0.0, 1.0], &[1.0, 0.0, 1.0]), 0.0);
+    }
 
     /// The exact sum, correctly rounded, of values that are multiples of 2^-40 below 2^80
     /// in magnitude: in fixed point with 2^-40 resolution each is an integer, summed exactly

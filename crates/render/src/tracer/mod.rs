@@ -13,6 +13,7 @@
 
 pub mod bench;
 pub mod camera;
+pub mod gpu;
 pub mod integrator;
 pub mod intersect;
 pub mod material;

@@ -34,7 +34,7 @@ pub mod dim {
 
 /// Laine-Karras style hash permutation: an Owen scramble of the bit-reversed value.
 #[inline]
-fn laine_karras(mut x: u32, seed: u32) -> u32 {
+pub(crate) fn laine_karras(mut x: u32, seed: u32) -> u32 {
     x = x.wrapping_add(seed);
     x ^= x.wrapping_mul(0x6c50_b47c);
     x ^= x.wrapping_mul(0xb82f_1e52);
@@ -126,7 +126,7 @@ fn sobol1(i: u32) -> u32 {
 
 /// The second Sobol dimension, bit-reversed.
 #[inline]
-fn sobol1_reversed(i: u32) -> u32 {
+pub(crate) fn sobol1_reversed(i: u32) -> u32 {
     byte_table_lookup(&SOBOL1_REVERSED_TABLES, i)
 }
 
