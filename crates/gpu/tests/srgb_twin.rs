@@ -9,9 +9,7 @@
 //! and 3.0e-7 (decode, at 0.969), 2 to 3 f32 ULP below 1; the test prints them on each run.
 
 use gpu::WgslAssembler;
-use gpu::wgpu;
 use study::color::{srgb_decode, srgb_encode};
-use wgpu::util::DeviceExt;
 
 /// Largest absolute difference allowed between the GPU's and the CPU's curve. WGSL's `pow`
 /// (exp2 of log2) may be several ULP off on hardware; 2e-6 is about 0.0005 of an 8-bit code
@@ -62,48 +60,9 @@ fn inputs() -> Vec<f32> {
 fn srgb_wgsl_agrees_with_the_cpu_curve() {
     let Some(ctx) = gpu::test_context("srgb_wgsl_agrees_with_the_cpu_curve") else { return };
     let wgsl = WgslAssembler::new().assemble("srgb_twin.wgsl", KERNEL).unwrap();
-    gpu::validate_wgsl("srgb_twin.wgsl", &wgsl).unwrap();
-    let module = ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("srgb twin"),
-        source: wgpu::ShaderSource::Wgsl(wgsl.into()),
-    });
-    let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("srgb twin"),
-        layout: None,
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
     let x = inputs();
-    let input = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("input"),
-        contents: bytemuck::cast_slice(&x),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let output = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("output"),
-        size: 8 * 4 * x.len() as u64,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
-        ],
-    });
-    let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((x.len() as u32).div_ceil(64), 1, 1);
-    }
-    ctx.queue.submit([encoder.finish()]);
-    let got: Vec<f32> = ctx.read_buffer_as(&output, ..).unwrap();
+    let got: Vec<f32> =
+        ctx.run_kernel("srgb_twin.wgsl", &wgsl, "main", &x, 8 * x.len(), (x.len() as u32).div_ceil(64)).unwrap();
 
     let (mut worst_encode, mut worst_decode, mut exact) = ((0.0f32, 0.0f32), (0.0f32, 0.0f32), 0usize);
     for (i, &v) in x.iter().enumerate() {

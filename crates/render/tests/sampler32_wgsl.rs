@@ -4,9 +4,7 @@
 //! stream, around 2^16, 2^20 and 2^31 and at u32::MAX, and dimensions 0..=20 and beyond;
 //! every seed and value must equal the CPU's bit for bit, as integers and as f32.
 
-use gpu::wgpu;
 use render::tracer::gpu::{assembler, sampler32};
-use wgpu::util::DeviceExt;
 
 const KERNEL: &str = "//! include sampler32
 // Per case: eye seed, pixel, sample index, dimension.
@@ -70,48 +68,10 @@ fn cases() -> Vec<[u32; 4]> {
 fn sampler32_wgsl_equals_the_cpu_bit_for_bit() {
     let Some(ctx) = gpu::test_context("sampler32_wgsl_equals_the_cpu_bit_for_bit") else { return };
     let wgsl = assembler().assemble("sampler32_twin.wgsl", KERNEL).unwrap();
-    gpu::validate_wgsl("sampler32_twin.wgsl", &wgsl).unwrap();
-    let module = ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("sampler32 twin"),
-        source: wgpu::ShaderSource::Wgsl(wgsl.into()),
-    });
-    let pipeline = ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("sampler32 twin"),
-        layout: None,
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
     let cases = cases();
-    let input = ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("cases"),
-        contents: bytemuck::cast_slice(&cases),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let output = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("output"),
-        size: 7 * 4 * cases.len() as u64,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let bind = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: input.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: output.as_entire_binding() },
-        ],
-    });
-    let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((cases.len() as u32).div_ceil(64), 1, 1);
-    }
-    ctx.queue.submit([encoder.finish()]);
-    let got: Vec<u32> = ctx.read_buffer_as(&output, ..).unwrap();
+    let workgroups = (cases.len() as u32).div_ceil(64);
+    let got: Vec<u32> =
+        ctx.run_kernel("sampler32_twin.wgsl", &wgsl, "main", &cases, 7 * cases.len(), workgroups).unwrap();
 
     const NAMES: [&str; 7] = ["pixel seed", "1D bits", "2D x bits", "2D y bits", "1D f32", "2D x f32", "2D y f32"];
     for (c, case) in cases.iter().enumerate() {
