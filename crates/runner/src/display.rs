@@ -68,19 +68,18 @@ pub const DUBOIS_LEFT: [[f32; 3]; 3] = [[0.437, 0.449, 0.164], [-0.062, -0.062, 
 /// Dubois's red-cyan matrix for the right eye.
 pub const DUBOIS_RIGHT: [[f32; 3]; 3] = [[-0.011, -0.032, -0.007], [0.377, 0.761, 0.009], [-0.026, -0.093, 1.234]];
 
-/// sRGB 8-bit to linear, and linear to sRGB 8-bit (clamped, rounded): the shared curve.
-pub use study::color::{linear_to_srgb8 as linear_to_srgb, srgb8_to_linear as srgb_to_linear};
+pub use study::color::{linear_to_srgb8, srgb8_to_linear};
 
 /// Fast sRGB conversions: a 256-entry table from sRGB codes to linear light, and for the
 /// way back the smallest linear value of every output code (found once by bisection over the
-/// exact [`linear_to_srgb`]) plus a 4096-bin table of the code at the start of each bin. No
+/// exact [`linear_to_srgb8`]) plus a 4096-bin table of the code at the start of each bin. No
 /// bin spans more than one code boundary (the curve's steepest slope is 12.92 * 255 codes per
 /// unit, 0.8 codes per bin), so one comparison with the next code's threshold finishes the
-/// lookup. [`Tables::encode`] therefore returns exactly what [`linear_to_srgb`] returns (it
+/// lookup. [`Tables::encode`] therefore returns exactly what [`linear_to_srgb8`] returns (it
 /// is monotonic), with no `powf` per pixel, in debug builds too.
 struct Tables {
     to_linear: [f32; 256],
-    /// `coarse[i] = linear_to_srgb(i / BINS)`, the code of any `l` in bin `i` or one less.
+    /// `coarse[i] = linear_to_srgb8(i / BINS)`, the code of any `l` in bin `i` or one less.
     coarse: [u8; BINS + 1],
     /// `split[i] = thresholds()[coarse[i] + 1]`: from there on bin `i` has the next code (kept
     /// per bin so the two loads of [`Tables::encode`] do not wait on each other).
@@ -91,7 +90,7 @@ const BINS: usize = 4096;
 
 static TABLES: std::sync::LazyLock<Tables> = std::sync::LazyLock::new(Tables::new);
 
-/// `thresholds()[c]`: the smallest `l` in [0, 1] with `linear_to_srgb(l) >= c` (c >= 1), by
+/// `thresholds()[c]`: the smallest `l` in [0, 1] with `linear_to_srgb8(l) >= c` (c >= 1), by
 /// bisection over the bit patterns of non-negative floats, which are ordered like the floats;
 /// `thresholds()[256]` is infinite.
 fn thresholds() -> [f32; 257] {
@@ -102,7 +101,7 @@ fn thresholds() -> [f32; 257] {
         let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
         while lo < hi {
             let mid = lo + (hi - lo) / 2;
-            if usize::from(linear_to_srgb(f32::from_bits(mid))) >= c { hi = mid } else { lo = mid + 1 }
+            if usize::from(linear_to_srgb8(f32::from_bits(mid))) >= c { hi = mid } else { lo = mid + 1 }
         }
         f32::from_bits(lo)
     })
@@ -110,9 +109,9 @@ fn thresholds() -> [f32; 257] {
 
 impl Tables {
     fn new() -> Self {
-        let to_linear = std::array::from_fn(|i| srgb_to_linear(i as u8));
+        let to_linear = std::array::from_fn(|i| srgb8_to_linear(i as u8));
         let threshold = thresholds();
-        let coarse: [u8; BINS + 1] = std::array::from_fn(|i| linear_to_srgb(i as f32 / BINS as f32));
+        let coarse: [u8; BINS + 1] = std::array::from_fn(|i| linear_to_srgb8(i as f32 / BINS as f32));
         // The single comparison in `encode` needs every bin to cross at most one code boundary.
         assert!(coarse.windows(2).all(|w| w[1] - w[0] <= 1), "sRGB bins too coarse");
         let split = std::array::from_fn(|i| threshold[usize::from(coarse[i]) + 1]);
@@ -123,7 +122,7 @@ impl Tables {
         [self.to_linear[usize::from(p[0])], self.to_linear[usize::from(p[1])], self.to_linear[usize::from(p[2])]]
     }
 
-    /// [`linear_to_srgb`] by table.
+    /// [`linear_to_srgb8`] by table.
     fn encode(&self, l: f32) -> u8 {
         let l = if l.is_finite() { l.clamp(0.0, 1.0) } else { 0.0 };
         let i = (l * BINS as f32) as usize;
@@ -131,7 +130,7 @@ impl Tables {
     }
 }
 
-/// [`linear_to_srgb`] through lookup tables (the same result, much faster).
+/// [`linear_to_srgb8`] through lookup tables (the same result, much faster).
 pub fn linear_to_srgb_fast(l: f32) -> u8 {
     TABLES.encode(l)
 }
@@ -302,25 +301,25 @@ mod tests {
     #[test]
     fn srgb_round_trips_every_code() {
         for v in 0..=255u8 {
-            assert_eq!(linear_to_srgb(srgb_to_linear(v)), v);
+            assert_eq!(linear_to_srgb8(srgb8_to_linear(v)), v);
         }
-        assert!((srgb_to_linear(128) - 0.2158605).abs() < 1e-5);
+        assert!((srgb8_to_linear(128) - 0.2158605).abs() < 1e-5);
     }
 
     #[test]
     fn anaglyph_applies_dubois_matrices_in_linear_light() {
         // White left, black right: output = Dubois left row sums, clamped.
         let p = anaglyph_pixel([255, 255, 255, 255], [0, 0, 0, 255]);
-        assert_eq!(p, [linear_to_srgb(0.437 + 0.449 + 0.164), 0, 0, 255]);
+        assert_eq!(p, [linear_to_srgb8(0.437 + 0.449 + 0.164), 0, 0, 255]);
         // Black left, white right: red clamps to 0; green 1.147 clamps to 255; blue 1.115 clamps.
         assert_eq!(anaglyph_pixel([0, 0, 0, 255], [255, 255, 255, 255]), [0, 255, 255, 255]);
         // Mid grey in both eyes: each channel is the column sum of both matrices times 0.2159.
-        let g = srgb_to_linear(128);
+        let g = srgb8_to_linear(128);
         let expect =
-            |c: usize| -> u8 { linear_to_srgb((0..3).map(|k| (DUBOIS_LEFT[c][k] + DUBOIS_RIGHT[c][k]) * g).sum()) };
+            |c: usize| -> u8 { linear_to_srgb8((0..3).map(|k| (DUBOIS_LEFT[c][k] + DUBOIS_RIGHT[c][k]) * g).sum()) };
         assert_eq!(anaglyph_pixel([128, 128, 128, 255], [128, 128, 128, 255]), [expect(0), expect(1), expect(2), 255]);
         // A pure red left-eye pixel with black right gives 0.437 red.
-        assert_eq!(anaglyph_pixel([255, 0, 0, 255], [0, 0, 0, 255]), [linear_to_srgb(0.437), 0, 0, 255]);
+        assert_eq!(anaglyph_pixel([255, 0, 0, 255], [0, 0, 0, 255]), [linear_to_srgb8(0.437), 0, 0, 255]);
         // The transform covers each pixel pair of a whole frame.
         let out = transform(DisplayMode::Anaglyph, View::Stereo, stereo([255, 0, 0, 255], [0, 255, 255, 255], 3, 2));
         assert_eq!((out.width, out.height), (3, 2));
@@ -385,7 +384,7 @@ mod tests {
         }
         let half = transform(DisplayMode::SbsHalf, View::Stereo, f.clone());
         assert_eq!((half.width, half.height), (4, 4));
-        let mid = linear_to_srgb(0.5);
+        let mid = linear_to_srgb8(0.5);
         assert_eq!(half.get(0, 0), [mid, mid, mid, 255]);
         assert_eq!(half.get(1, 3), [mid, mid, mid, 255]);
         assert_eq!(half.get(2, 0), [100, 100, 100, 255]);
@@ -417,7 +416,7 @@ mod tests {
         let mut checked = 0;
         for bits in (0..=1.0f32.to_bits()).step_by(331) {
             let l = f32::from_bits(bits);
-            assert_eq!(linear_to_srgb_fast(l), linear_to_srgb(l), "l = {l:e}");
+            assert_eq!(linear_to_srgb_fast(l), linear_to_srgb8(l), "l = {l:e}");
             checked += 1;
         }
         assert!(checked > 3_000_000);
@@ -425,11 +424,11 @@ mod tests {
         for c in 1..=255u8 {
             let t = threshold[usize::from(c)];
             let below = f32::from_bits(t.to_bits() - 1);
-            assert_eq!((linear_to_srgb(t), linear_to_srgb(below)), (c, c - 1), "code {c}");
+            assert_eq!((linear_to_srgb8(t), linear_to_srgb8(below)), (c, c - 1), "code {c}");
             assert_eq!((linear_to_srgb_fast(t), linear_to_srgb_fast(below)), (c, c - 1), "code {c}");
         }
         for l in [-1.0, 1.5, f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
-            assert_eq!(linear_to_srgb_fast(l), linear_to_srgb(l), "{l}");
+            assert_eq!(linear_to_srgb_fast(l), linear_to_srgb8(l), "{l}");
         }
     }
 

@@ -403,7 +403,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     use super::*;
-    use crate::display::{Rgba8, line_eye, linear_to_srgb, row_interleave_on_screen, srgb_to_linear, transform};
+    use crate::display::{Rgba8, line_eye, linear_to_srgb8, row_interleave_on_screen, srgb8_to_linear, transform};
 
     /// An uploader on a test device for `test`, or `None` after the gpu crate's
     /// `SKIPPED: no GPU adapter` line (a panic with BLURLAB_REQUIRE_GPU=1).
@@ -591,12 +591,12 @@ mod tests {
         let mixed = std::array::from_fn(|c| {
             let v = |x, y| {
                 let code = image.get(x, y)[c];
-                if srgb { f64::from(srgb_to_linear(code)) } else { f64::from(code) }
+                if srgb { f64::from(srgb8_to_linear(code)) } else { f64::from(code) }
             };
             let top = v(x0, y0) * (1.0 - fx) + v(x1, y0) * fx;
             let bottom = v(x0, y1) * (1.0 - fx) + v(x1, y1) * fx;
             let mixed = top * (1.0 - fy) + bottom * fy;
-            if srgb { f64::from(linear_to_srgb(mixed as f32)) } else { mixed }
+            if srgb { f64::from(linear_to_srgb8(mixed as f32)) } else { mixed }
         });
         (mixed, range)
     }

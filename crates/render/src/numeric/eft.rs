@@ -10,6 +10,14 @@ pub fn two_sum(a: f64, b: f64) -> (f64, f64) {
     (s, (a - (s - bb)) + (b - bb))
 }
 
+/// `(s, e)` with `s = fl(a + b)` and `s + e = a + b` exactly (Knuth's TwoSum in f32).
+#[inline]
+pub fn two_sum_f32(a: f32, b: f32) -> (f32, f32) {
+    let s = a + b;
+    let bb = s - a;
+    (s, (a - (s - bb)) + (b - bb))
+}
+
 /// `(p, e)` with `p = fl(a b)` and `p + e = a b` exactly (barring overflow/underflow).
 #[inline]
 pub fn two_product(a: f64, b: f64) -> (f64, f64) {

@@ -15,7 +15,7 @@ pub mod quadratic;
 pub mod sum;
 pub mod trig;
 
-pub use eft::{difference_of_products, difference_of_products_f32, two_product, two_sum};
+pub use eft::{difference_of_products, difference_of_products_f32, two_product, two_sum, two_sum_f32};
 pub use offset::{gamma_f32, next_float_down_f32, next_float_up_f32, offset_along_normal, offset_ray_origin_f32};
 pub use quadratic::{solve_quadratic, solve_quadratic_f32};
-pub use sum::{CompensatedSum, CompensatedSumF32, two_sum_f32};
+pub use sum::{CompensatedSum, CompensatedSumF32};

@@ -9,6 +9,8 @@
 
 pub use study::stats::CompensatedSum;
 
+use super::eft::two_sum_f32;
+
 /// A compensated f32 sum (same steps as `compensated_add` in `numeric.wgsl`): the sum is
 /// kept as an unevaluated pair `sum + compensation` with `|compensation| <= ulp(sum) / 2`.
 /// Each addition is Knuth's TwoSum of the running sum and the new term, its error added to
@@ -39,14 +41,6 @@ impl CompensatedSumF32 {
     pub fn value(&self) -> f32 {
         self.sum + self.compensation
     }
-}
-
-/// `(s, e)` with `s = fl(a + b)` and `s + e = a + b` exactly (Knuth's TwoSum in f32).
-#[inline]
-pub fn two_sum_f32(a: f32, b: f32) -> (f32, f32) {
-    let s = a + b;
-    let bb = s - a;
-    (s, (a - (s - bb)) + (b - bb))
 }
 
 #[cfg(test)]
