@@ -32,7 +32,7 @@ use crate::io::{LinearImage, decode_exr, decode_hdr};
 use crate::numeric::trig::{sin_cos_small, sin_cos_turns};
 
 mod cdf16;
-use cdf16::Cdf16;
+pub(crate) use cdf16::Cdf16;
 
 /// Errors of building an environment map; each names the file (when there is one) and
 /// what is wrong with it.
@@ -152,6 +152,25 @@ pub struct EnvironmentMap {
     dist_row_sc: Vec<(f64, f64)>,
     /// `(sin phi, cos phi)` of the distribution's column edges, `dist_width + 1` entries.
     dist_col_sc: Vec<(f64, f64)>,
+}
+
+/// A view of a map's tables (see the fields of [`EnvironmentMap`]).
+pub(crate) struct EnvTablesRef<'a> {
+    pub width: u32,
+    pub height: u32,
+    pub texels: &'a [[f32; 3]],
+    pub cell_shift: u32,
+    pub dist_width: u32,
+    pub dist_height: u32,
+    pub rot_cos: f64,
+    pub rot_sin: f64,
+    pub marginal: &'a Cdf16,
+    pub rows: &'a Cdf16,
+    pub samplable: bool,
+    pub row_edge_cos: &'a [f64],
+    pub col_edge: &'a [(f64, f64)],
+    pub row_bins: &'a [u32],
+    pub col_bins: &'a [u32],
 }
 
 /// Bins per map row of the table that starts the row search (see `texel_of`): at the
@@ -362,6 +381,28 @@ impl EnvironmentMap {
     /// Whether the map has any radiance to importance sample.
     pub fn is_samplable(&self) -> bool {
         self.samplable
+    }
+
+    /// The look-up and sampling tables, for the GPU tracer's f32 copy of them
+    /// (`tracer::gpu::params::EnvTables`).
+    pub(crate) fn tables(&self) -> EnvTablesRef<'_> {
+        EnvTablesRef {
+            width: self.width,
+            height: self.height,
+            texels: &self.texels,
+            cell_shift: self.cell_shift,
+            dist_width: self.dist_width,
+            dist_height: self.dist_height,
+            rot_cos: self.rot_cos,
+            rot_sin: self.rot_sin,
+            marginal: &self.marginal,
+            rows: &self.rows,
+            samplable: self.samplable,
+            row_edge_cos: &self.row_edge_cos,
+            col_edge: &self.col_edge,
+            row_bins: &self.row_bins,
+            col_bins: &self.col_bins,
+        }
     }
 
     /// World direction to map direction (undoing the rotation about +y).

@@ -20,7 +20,7 @@ const ONE: u32 = u16::MAX as u32;
 
 /// Distributions over `width` cells each, stored one after another ("rows").
 #[derive(Clone, Debug, PartialEq)]
-pub(super) struct Cdf16 {
+pub(crate) struct Cdf16 {
     /// Cells per distribution.
     width: usize,
     /// Guide entries per row (a power of two) and `16 - log2` of it: guide entry `k`
@@ -65,6 +65,26 @@ impl Cdf16 {
             table.extend_from_slice(&cdf);
         }
         Cdf16 { width, guide_len, guide_shift, stride, table }
+    }
+
+    /// Cells per distribution.
+    pub(crate) fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Guide entries per distribution, and `16 - log2` of that.
+    pub(crate) fn guide(&self) -> (usize, u32) {
+        (self.guide_len, self.guide_shift)
+    }
+
+    /// Table entries per distribution (guide, then `width + 1` cumulative entries).
+    pub(crate) fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// Every distribution's guide and cumulative table, one after another.
+    pub(crate) fn table(&self) -> &[u16] {
+        &self.table
     }
 
     fn cdf(&self, y: usize) -> &[u16] {

@@ -38,6 +38,26 @@ impl CameraRays {
         }
     }
 
+    /// The camera position.
+    pub fn origin(&self) -> DVec3 {
+        self.origin
+    }
+
+    /// The unnormalised direction through the image's top-left corner.
+    pub fn corner(&self) -> DVec3 {
+        self.corner
+    }
+
+    /// The step of one pixel to the right.
+    pub fn step_x(&self) -> DVec3 {
+        self.step_x
+    }
+
+    /// The step of one pixel down.
+    pub fn step_y(&self) -> DVec3 {
+        self.step_y
+    }
+
     /// The ray through continuous pixel coordinates (x right, y down).
     #[inline]
     pub fn ray(&self, pixel: DVec2) -> Ray {

@@ -53,7 +53,7 @@ fn v3(c: [f64; 3]) -> DVec3 {
 
 /// Contrast of the noise: the octave sum (normalised by the total amplitude) is scaled by
 /// this before mapping to [0, 1].
-const NOISE_GAIN: f64 = 2.2;
+pub(crate) const NOISE_GAIN: f64 = 2.2;
 
 impl Shader {
     /// Prepares a scene material.
@@ -134,7 +134,7 @@ pub fn filtered_noise(p: DVec3, base_frequency: f64, octaves: u32, seed: u32, fo
 }
 
 #[inline]
-fn lattice_hash(x: i64, y: i64, z: i64, seed: u32) -> u64 {
+pub(crate) fn lattice_hash(x: i64, y: i64, z: i64, seed: u32) -> u64 {
     splitmix64(
         (x as u64).wrapping_mul(0x8da6_b343)
             ^ (y as u64).wrapping_mul(0xd816_3841)

@@ -1,8 +1,21 @@
-//! The GPU tracer's CPU-side pieces. For now the sampler: [`sampler32`], the u32-only
-//! twin of [`super::sampler`] that `shaders/sampler32.wgsl` computes bit for bit, and
-//! [`assembler`], the WGSL assembler that knows the render crate's shader includes.
+//! The GPU distribution ray tracer: the kernel `shaders/tracer.wgsl` and everything around
+//! it.
+//!
+//! - [`sampler32`]: the u32-only twin of [`super::sampler`] that `shaders/sampler32.wgsl`
+//!   computes bit for bit.
+//! - [`params`]: what the kernel reads (frame parameters, environment tables, batches) and
+//!   its specialisation by pipeline override constants.
+//! - [`cpu`]: the kernel's CPU twin in f32, a Rust function per WGSL function.
+//! - [`device`]: the host side, [`GpuTracer`].
+//! - [`assembler`]: the WGSL assembler that knows the render crate's shader includes.
 
+pub mod cpu;
+pub mod device;
+pub mod params;
 pub mod sampler32;
+
+pub use device::{GpuEnvironment, GpuFrame, GpuTracer, GpuTracerError, PendingFrame};
+pub use params::Specialisation;
 
 use ::gpu::WgslAssembler;
 

@@ -1,0 +1,651 @@
+//! The CPU twin of `shaders/tracer.wgsl`, in f32: [`trace_batch`] is the kernel's entry point
+//! `trace_batch` with the same arguments (the frame's parameters, a batch, the environment
+//! buffer, the accumulators, the specialisation), and every WGSL function has a Rust
+//! function of the same name and the same operations in the same order, so GPU and twin
+//! agree to rounding (`tests/tracer_gpu.rs` holds them to it per pixel). It is also the
+//! reference the kernel's f32 numerics are tested against the f64 tracer with.
+//!
+//! The integrator is the CPU tracer's ([`crate::tracer::integrator`]): the same bounce
+//! structure, MIS, Russian roulette, cone footprints and sampling dimensions, with the u32
+//! sampler of [`super::sampler32`]. What differs is only what f32 and WGSL force:
+//!
+//! - Trigonometry is by polynomial (`sin_cos_turns`, `atan`), not by the platform's
+//!   functions, whose precision WGSL leaves to the implementation.
+//! - Ray origins are offset along the normal by `16 eps32 (|p|max + 1)`, the f64 tracer's
+//!   bound with the f32 unit round-off.
+//! - Samples are added to the pixel already divided by the sample count, so a sum of huge
+//!   values cannot overflow where their mean does not. The f32 sum of `n` non-negative
+//!   terms has a relative error of at most `(n - 1) eps32 / 2` (3.0e-5 at 512 samples),
+//!   far below an 8-bit output step and the Monte Carlo noise.
+//! - A sample is finite when none of its channels has an all-ones exponent (WGSL has no
+//!   `isNan`, and comparisons with NaN may be optimised away).
+//! - The noise texture's 64-bit lattice hash is [`crate::tracer::material`]'s, which the
+//!   WGSL computes with pairs of u32.
+
+use glam::Vec3;
+
+use study::scene::FrameScene;
+
+use super::params::{Accum, Batch, EnvTables, FrameParams, ParamsError, Specialisation, material_kind};
+use super::sampler32::{pixel_seed, sample_1d_bits, sample_2d_bits, to_unit};
+use crate::io::LinearImage;
+use crate::tracer::material::{NOISE_GAIN, lattice_hash};
+use crate::tracer::sampler::dim;
+
+const PI: f32 = std::f32::consts::PI;
+const TAU: f32 = std::f32::consts::TAU;
+const FRAC_1_PI: f32 = std::f32::consts::FRAC_1_PI;
+/// Spread of the cone a sample stands for after a diffuse bounce (the CPU tracer's).
+const DIFFUSE_SPREAD: f32 = 0.25;
+/// Relative error bound of a hit point: 16 f32 unit round-offs.
+const HIT_POINT_ERROR: f32 = 16.0 * f32::EPSILON;
+/// 1 / 65535, the weight of one step of a 16-bit cumulative table.
+const CDF_STEP: f32 = 1.0 / 65535.0;
+
+fn xyz(v: [f32; 4]) -> Vec3 {
+    Vec3::new(v[0], v[1], v[2])
+}
+
+fn dot(a: Vec3, b: Vec3) -> f32 {
+    a.x * b.x + a.y * b.y + a.z * b.z
+}
+
+fn normalize(v: Vec3) -> Vec3 {
+    v / dot(v, v).sqrt()
+}
+
+/// `(sin 2 pi t, cos 2 pi t)`: reduction to the nearest quarter turn, then Taylor
+/// polynomials to x^9 and x^10 on |x| <= pi / 4 (errors below 2e-9).
+pub fn sin_cos_turns(t: f32) -> (f32, f32) {
+    let q = (t * 4.0 + 0.5).floor();
+    let x = (t - q * 0.25) * TAU;
+    let y = x * x;
+    let s = x + x * y * (-1.0 / 6.0 + y * (1.0 / 120.0 + y * (-1.0 / 5040.0 + y * (1.0 / 362_880.0))));
+    let c = 1.0 + y * (-0.5 + y * (1.0 / 24.0 + y * (-1.0 / 720.0 + y * (1.0 / 40_320.0 + y * (-1.0 / 3_628_800.0)))));
+    match (q as i32) & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
+/// `atan x` for x in [0, 1]: reduced by `atan x = pi / 4 + atan((x - 1) / (x + 1))` above
+/// tan(pi / 8) to |z| <= 0.4143, then the odd Taylor series to z^15 (error below 2e-8).
+fn atan_unit(x: f32) -> f32 {
+    let reduce = x > 0.414_213_57;
+    let z = if reduce { (x - 1.0) / (x + 1.0) } else { x };
+    let y = z * z;
+    let p = 1.0
+        + y * (-1.0 / 3.0
+            + y * (1.0 / 5.0
+                + y * (-1.0 / 7.0 + y * (1.0 / 9.0 + y * (-1.0 / 11.0 + y * (1.0 / 13.0 + y * (-1.0 / 15.0)))))));
+    let r = z * p;
+    if reduce { 0.25 * PI + r } else { r }
+}
+
+/// `atan2(y, x)` in [-pi, pi] from [`atan_unit`].
+pub fn atan2(y: f32, x: f32) -> f32 {
+    let (ax, ay) = (x.abs(), y.abs());
+    let hi = ax.max(ay);
+    if hi == 0.0 {
+        return 0.0;
+    }
+    let mut r = atan_unit(ax.min(ay) / hi);
+    if ay > ax {
+        r = 0.5 * PI - r;
+    }
+    if x < 0.0 {
+        r = PI - r;
+    }
+    if y < 0.0 { -r } else { r }
+}
+
+/// The sphere at one sample's time.
+#[derive(Clone, Copy, Debug)]
+struct SphereAt {
+    centre: Vec3,
+    radius: f32,
+    /// Spin since the opening: (sin, cos) of minus the angle, about `FrameParams::spin`.
+    spin_sc: (f32, f32),
+}
+
+/// Hit surfaces (as in WGSL: 0 none, 1 sphere, 2 floor).
+const NONE: u32 = 0;
+const SPHERE: u32 = 1;
+const FLOOR: u32 = 2;
+
+#[derive(Clone, Copy, Debug)]
+struct Hit {
+    t: f32,
+    point: Vec3,
+    normal: Vec3,
+    surface: u32,
+}
+
+fn intersect_sphere(o: Vec3, d: Vec3, centre: Vec3, radius: f32) -> f32 {
+    // -1 for no hit. The cancellation-free form of the f64 tracer.
+    let f = o - centre;
+    let b = -dot(f, d);
+    let v = f + d * b;
+    let disc = radius * radius - dot(v, v);
+    if disc.is_nan() || disc < 0.0 {
+        return -1.0;
+    }
+    let c = dot(f, f) - radius * radius;
+    let q = b + disc.sqrt().copysign(b);
+    if q == 0.0 {
+        return -1.0;
+    }
+    let (a0, a1) = (c / q, q);
+    let (t0, t1) = if a0 < a1 { (a0, a1) } else { (a1, a0) };
+    if t0 > 0.0 {
+        t0
+    } else if t1 > 0.0 {
+        t1
+    } else {
+        -1.0
+    }
+}
+
+fn sphere_blocks(o: Vec3, d: Vec3, centre: Vec3, radius: f32) -> bool {
+    let f = o - centre;
+    let b = -dot(f, d);
+    let v = f + d * b;
+    let disc = radius * radius - dot(v, v);
+    if disc.is_nan() || disc < 0.0 {
+        return false;
+    }
+    let c = dot(f, f) - radius * radius;
+    c < 0.0 || b > 0.0
+}
+
+fn intersect_floor(o: Vec3, d: Vec3, height: f32) -> f32 {
+    if d.y == 0.0 {
+        return -1.0;
+    }
+    let t = (height - o.y) / d.y;
+    if t > 0.0 && t < f32::MAX { t } else { -1.0 }
+}
+
+fn intersect(o: Vec3, d: Vec3, skip: u32, s: &SphereAt, floor_height: f32) -> Hit {
+    let ts = if skip == SPHERE { -1.0 } else { intersect_sphere(o, d, s.centre, s.radius) };
+    let tf = if skip == FLOOR { -1.0 } else { intersect_floor(o, d, floor_height) };
+    if ts > 0.0 && (tf <= 0.0 || ts <= tf) {
+        let p = o + d * ts;
+        let n = normalize(p - s.centre);
+        return Hit { t: ts, point: s.centre + n * s.radius, normal: n, surface: SPHERE };
+    }
+    if tf > 0.0 {
+        let mut p = o + d * tf;
+        p.y = floor_height;
+        return Hit { t: tf, point: p, normal: Vec3::Y, surface: FLOOR };
+    }
+    Hit { t: -1.0, point: Vec3::ZERO, normal: Vec3::ZERO, surface: NONE }
+}
+
+fn occluded(o: Vec3, d: Vec3, skip: u32, s: &SphereAt, floor_height: f32) -> bool {
+    (skip != FLOOR && intersect_floor(o, d, floor_height) > 0.0)
+        || (skip != SPHERE && sphere_blocks(o, d, s.centre, s.radius))
+}
+
+fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
+    let err = HIT_POINT_ERROR * (p.x.abs().max(p.y.abs()).max(p.z.abs()) + 1.0);
+    p + n * err
+}
+
+fn is_finite3(v: Vec3) -> bool {
+    let bad = |x: f32| (x.to_bits() & 0x7f80_0000) == 0x7f80_0000;
+    !(bad(v.x) || bad(v.y) || bad(v.z))
+}
+
+// ---- Environment: texel look-up and importance sampling (see `crate::env`). ----
+
+fn env_f32(env: &[u32], i: u32) -> f32 {
+    f32::from_bits(env[i as usize])
+}
+
+fn env_u16(env: &[u32], offset: u32, i: u32) -> u32 {
+    (env[(offset + (i >> 1)) as usize] >> ((i & 1) * 16)) & 0xffff
+}
+
+fn env_texel(env: &[u32], index: u32) -> Vec3 {
+    Vec3::new(env_f32(env, 3 * index), env_f32(env, 3 * index + 1), env_f32(env, 3 * index + 2))
+}
+
+fn pseudo_angle(a: f32, b: f32) -> f32 {
+    let sum = a.abs() + b.abs();
+    if sum == 0.0 {
+        return 0.0;
+    }
+    let r = a / sum;
+    if b >= 0.0 { if a >= 0.0 { r } else { 4.0 + r } } else { 2.0 - r }
+}
+
+/// The texel a finite non-zero world direction falls in: (index, cell x, cell y, sin theta).
+fn texel_of(p: &FrameParams, env: &[u32], d: Vec3) -> (u32, u32, u32, f32) {
+    let (rc, rs) = (p.env_rot_cos, p.env_rot_sin);
+    let m = Vec3::new(rc * d.x - rs * d.z, d.y, rs * d.x + rc * d.z);
+    let inv_len = 1.0 / dot(m, m).sqrt();
+    let cos_theta = (m.y * inv_len).clamp(-1.0, 1.0);
+    let sin_theta = (m.x * m.x + m.z * m.z).sqrt() * inv_len;
+    let (w, h) = (p.env_width, p.env_height);
+    let bins = 16 * h;
+    let k = (((1.0 - cos_theta) * (0.5 * bins as f32)) as u32).min(bins - 1);
+    let mut y = env[(p.off_row_bins + k) as usize];
+    while y + 1 < h && cos_theta <= env_f32(env, p.off_row_edge_cos + y + 1) {
+        y += 1;
+    }
+    while y > 0 && cos_theta > env_f32(env, p.off_row_edge_cos + y) {
+        y -= 1;
+    }
+    let bins = 4 * w;
+    let k = ((pseudo_angle(m.x, -m.z) * (0.25 * bins as f32)) as u32).min(bins - 1);
+    let mut x = env[(p.off_col_bins + k) as usize];
+    let after = |j: u32| {
+        let s = env_f32(env, p.off_col_edge + 2 * j);
+        let c = env_f32(env, p.off_col_edge + 2 * j + 1);
+        m.x * c + m.z * s >= 0.0
+    };
+    for _ in 0..4 {
+        if !after(x) {
+            x = if x == 0 { w - 1 } else { x - 1 };
+        } else if after(x + 1) {
+            x = if x + 1 == w { 0 } else { x + 1 };
+        } else {
+            break;
+        }
+    }
+    let shift = p.env_cell_shift;
+    (y * w + x, x >> shift, y >> shift, sin_theta)
+}
+
+fn cell_density(p: &FrameParams, env: &[u32], x: u32, y: u32) -> f32 {
+    if p.env_samplable == 0 {
+        return 0.0;
+    }
+    let m = p.off_marginal;
+    let row_cdf = p.marginal_guide_len;
+    let p_row = (env_u16(env, m, row_cdf + y + 1) - env_u16(env, m, row_cdf + y)) as f32 * CDF_STEP;
+    let base = y * p.rows_stride + p.rows_guide_len;
+    let p_col = (env_u16(env, p.off_rows, base + x + 1) - env_u16(env, p.off_rows, base + x)) as f32 * CDF_STEP;
+    p_row * p_col * (p.env_dist_width * p.env_dist_height) as f32
+}
+
+/// Inverts distribution `row` (of `width` cells) of a 16-bit table at `u`: (cell, position
+/// in the cell, probability).
+fn cdf_sample(
+    env: &[u32],
+    offset: u32,
+    row: u32,
+    (guide_len, guide_shift, stride): (u32, u32, u32),
+    width: u32,
+    u: f32,
+) -> (u32, f32, f32) {
+    let base = row * stride;
+    let t = u * 65535.0;
+    let ti = (t as u32).min(65534);
+    let k = ti >> guide_shift;
+    let mut x = env_u16(env, offset, base + k);
+    let hi = if k + 1 < guide_len { env_u16(env, offset, base + k + 1) } else { width - 1 };
+    let cdf = base + guide_len;
+    while x < hi && env_u16(env, offset, cdf + x + 1) <= ti {
+        x += 1;
+    }
+    let start = env_u16(env, offset, cdf + x) as f32;
+    let cell = (env_u16(env, offset, cdf + x + 1) - env_u16(env, offset, cdf + x)) as f32;
+    let f = ((t - start) / cell).clamp(0.0, 1.0 - f32::EPSILON);
+    (x, f, cell * CDF_STEP)
+}
+
+/// A light sample: (world direction, density over map coordinates, jacobian, texel), or
+/// density 0 for none.
+fn env_sample(p: &FrameParams, env: &[u32], u: [f32; 2]) -> (Vec3, f32, f32, u32) {
+    let none = (Vec3::ZERO, 0.0, 0.0, 0);
+    if p.env_samplable == 0 {
+        return none;
+    }
+    let (wd, hd) = (p.env_dist_width, p.env_dist_height);
+    let marginal = (p.marginal_guide_len, p.marginal_guide_shift, p.marginal_stride);
+    let rows = (p.rows_guide_len, p.rows_guide_shift, p.rows_stride);
+    let (y, fy, p_y) = cdf_sample(env, p.off_marginal, 0, marginal, hd, u[0]);
+    let (x, fx, p_x) = cdf_sample(env, p.off_rows, y, rows, wd, u[1]);
+    let density = p_y * p_x * (wd * hd) as f32;
+    if density <= 0.0 {
+        return none;
+    }
+    let (sin_theta, cos_theta) = sin_cos_turns(0.5 * (y as f32 + fy) / hd as f32);
+    let (sin_phi, cos_phi) = sin_cos_turns((x as f32 + fx) / wd as f32);
+    if sin_theta <= 0.0 {
+        return none;
+    }
+    let f = 1u32 << p.env_cell_shift;
+    let px = (((x as f32 + fx) * f as f32) as u32).clamp(x * f, x * f + f - 1);
+    let py = (((y as f32 + fy) * f as f32) as u32).clamp(y * f, y * f + f - 1);
+    let m = Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta);
+    let (rc, rs) = (p.env_rot_cos, p.env_rot_sin);
+    let world = Vec3::new(rc * m.x + rs * m.z, m.y, -rs * m.x + rc * m.z);
+    (world, density, 2.0 * PI * PI * sin_theta, py * p.env_width + px)
+}
+
+// ---- Materials. ----
+
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+fn fade(t: f32) -> f32 {
+    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+}
+
+fn grad_dot(h: u32, d: Vec3) -> f32 {
+    match h {
+        0 => d.x + d.y,
+        1 => -d.x + d.y,
+        2 => d.x - d.y,
+        3 => -d.x - d.y,
+        4 => d.x + d.z,
+        5 => -d.x + d.z,
+        6 => d.x - d.z,
+        7 => -d.x - d.z,
+        8 => d.y + d.z,
+        9 => -d.y + d.z,
+        10 => d.y - d.z,
+        _ => -d.y - d.z,
+    }
+}
+
+fn gradient_noise(q: Vec3, seed: u32) -> f32 {
+    let cell = Vec3::new(q.x.floor(), q.y.floor(), q.z.floor());
+    let f = q - cell;
+    let (ix, iy, iz) = (cell.x as i32, cell.y as i32, cell.z as i32);
+    let (u, v, w) = (fade(f.x), fade(f.y), fade(f.z));
+    let corner = |dx: i32, dy: i32, dz: i32| {
+        let h = lattice_hash(i64::from(ix + dx), i64::from(iy + dy), i64::from(iz + dz), seed);
+        grad_dot((h % 12) as u32, f - Vec3::new(dx as f32, dy as f32, dz as f32))
+    };
+    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+    let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), u);
+    let x10 = lerp(corner(0, 1, 0), corner(1, 1, 0), u);
+    let x01 = lerp(corner(0, 0, 1), corner(1, 0, 1), u);
+    let x11 = lerp(corner(0, 1, 1), corner(1, 1, 1), u);
+    lerp(lerp(x00, x10, v), lerp(x01, x11, v), w)
+}
+
+fn filtered_noise(q: Vec3, p: &FrameParams, footprint: f32) -> f32 {
+    let mut sum = 0.0;
+    let mut norm = 0.0;
+    let mut freq = p.albedo_a[3];
+    let mut amp = 1.0;
+    for k in 0..p.octaves {
+        norm += amp;
+        let w = 1.0 - smoothstep(0.25, 0.5, freq * footprint);
+        if w > 0.0 {
+            sum += amp * w * gradient_noise(q * freq, p.noise_seed.wrapping_add(k.wrapping_mul(0x9e37_79b9)));
+        }
+        freq *= 2.0;
+        amp *= 0.5;
+    }
+    if norm > 0.0 { sum / norm } else { 0.0 }
+}
+
+/// The albedo of the sphere at `local` (its own frame, unit sphere).
+fn texture(p: &FrameParams, spec: &Specialisation, local: Vec3, footprint: f32) -> Vec3 {
+    let (a, b) = (xyz(p.albedo_a), xyz(p.albedo_b));
+    if spec.material == material_kind::CHECKER {
+        let lon = atan2(local.z, local.x);
+        let y = local.y.clamp(-1.0, 1.0);
+        let lat = atan2(y, (1.0 - y * y).max(0.0).sqrt());
+        let u = (lon / TAU + 0.5) * p.albedo_a[3];
+        let v = (lat / PI + 0.5) * p.albedo_b[3];
+        return if ((u.floor() as i32).wrapping_add(v.floor() as i32) & 1) == 0 { a } else { b };
+    }
+    let n = filtered_noise(local, p, footprint);
+    let s = (0.5 + NOISE_GAIN as f32 * n).clamp(0.0, 1.0);
+    a + (b - a) * s
+}
+
+/// World-to-object rotation of a vector at the sample's time: the spin since the opening
+/// undone (Rodrigues), then the opening's rotation.
+fn to_object(p: &FrameParams, spec: &Specialisation, s: &SphereAt, v: Vec3) -> Vec3 {
+    let mut r = v;
+    if spec.time_sampling {
+        let k = xyz(p.spin);
+        let (sn, cs) = s.spin_sc;
+        r = v * cs + k.cross(v) * sn + k * (dot(k, v) * (1.0 - cs));
+    }
+    Vec3::new(dot(xyz(p.w2o_row0), r), dot(xyz(p.w2o_row1), r), dot(xyz(p.w2o_row2), r))
+}
+
+fn surface_albedo(p: &FrameParams, spec: &Specialisation, s: &SphereAt, hit: &Hit, footprint: f32, dir: Vec3) -> Vec3 {
+    if hit.surface == FLOOR {
+        return xyz(p.floor_albedo);
+    }
+    if spec.material == material_kind::FLAT {
+        return xyz(p.albedo_a);
+    }
+    let local = to_object(p, spec, s, (hit.point - s.centre) / s.radius);
+    let cos = dot(hit.normal, dir).abs().max(0.05);
+    texture(p, spec, local, footprint / (s.radius * cos.sqrt()))
+}
+
+fn cosine_sample(n: Vec3, u: [f32; 2]) -> (Vec3, f32) {
+    let r = u[0].sqrt();
+    let (sn, cs) = sin_cos_turns(u[1]);
+    let z = (1.0 - u[0]).max(0.0).sqrt();
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    let bt = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+    (t * (r * cs) + bt * (r * sn) + n * z, z * FRAC_1_PI)
+}
+
+fn sample_2d(seed: u32, index: u32, d: u32) -> [f32; 2] {
+    sample_2d_bits(seed, index, d).map(to_unit)
+}
+
+/// Radiance along a camera ray (the integrator of `crate::tracer::integrator`, in f32).
+fn radiance(
+    p: &FrameParams,
+    spec: &Specialisation,
+    env: &[u32],
+    s: &SphereAt,
+    seed: u32,
+    index: u32,
+    camera_dir: Vec3,
+) -> Vec3 {
+    let floor_h = p.wrap_jump[3];
+    let mut o = xyz(p.cam_origin);
+    let mut d = camera_dir;
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut skip = NONE;
+    let mut prev_bsdf_pdf = 0.0f32;
+    let mut cone_width = 0.0f32;
+    let mut spread = p.cam_origin[3];
+    let mut bounce = 0u32;
+    loop {
+        let mut hit = intersect(o, d, skip, s, floor_h);
+        if hit.surface == NONE {
+            let (texel, cx, cy, sin_theta) = texel_of(p, env, d);
+            let le = env_texel(env, texel);
+            if bounce == 0 {
+                l += beta * le;
+            } else {
+                let density = if sin_theta > 0.0 { cell_density(p, env, cx, cy) } else { 0.0 };
+                let jacobian = 2.0 * PI * PI * sin_theta;
+                let mut w = 1.0;
+                if density > 0.0 {
+                    let pj = prev_bsdf_pdf * jacobian;
+                    w = pj * pj / (pj * pj + density * density);
+                }
+                l += beta * le * w;
+            }
+            break;
+        }
+        if bounce == p.max_bounces {
+            break;
+        }
+        let base = dim::BOUNCE_BASE + bounce * dim::PER_BOUNCE;
+        let u_light = sample_2d(seed, index, base + dim::LIGHT);
+        let u_bsdf = sample_2d(seed, index, base + dim::BSDF);
+        let mut leave_skip = hit.surface;
+        if dot(hit.normal, d) > 0.0 {
+            hit.normal = -hit.normal;
+            if hit.surface == SPHERE {
+                leave_skip = NONE;
+            }
+        }
+        let footprint = cone_width + hit.t * spread;
+        let albedo = surface_albedo(p, spec, s, &hit, footprint, d);
+        let (ld, density, jacobian, texel) = env_sample(p, env, u_light);
+        if density > 0.0 {
+            let cos = dot(hit.normal, ld);
+            if cos > 0.0 {
+                let so = offset_origin(hit.point, hit.normal);
+                if !occluded(so, ld, leave_skip, s, floor_h) {
+                    let b = cos * FRAC_1_PI;
+                    let bj = b * jacobian;
+                    let weight = b * density * jacobian / (density * density + bj * bj);
+                    l += beta * albedo * env_texel(env, texel) * weight;
+                }
+            }
+        }
+        let (wi, pdf) = cosine_sample(hit.normal, u_bsdf);
+        if pdf.is_nan() || pdf <= 0.0 {
+            break;
+        }
+        beta *= albedo;
+        bounce += 1;
+        if bounce >= p.russian_roulette_from {
+            let survive = beta.x.max(beta.y).max(beta.z).clamp(0.05, 1.0);
+            if survive < 1.0 {
+                if to_unit(sample_1d_bits(seed, index, base + dim::ROULETTE)) >= survive {
+                    break;
+                }
+                beta /= survive;
+            }
+        }
+        if beta.x == 0.0 && beta.y == 0.0 && beta.z == 0.0 {
+            break;
+        }
+        o = offset_origin(hit.point, hit.normal);
+        d = wi;
+        skip = leave_skip;
+        prev_bsdf_pdf = pdf;
+        cone_width = footprint;
+        spread = spread.max(DIFFUSE_SPREAD);
+    }
+    l
+}
+
+/// The sphere at the time of fraction `u` of the shutter.
+fn sphere_at(p: &FrameParams, spec: &Specialisation, u: f32) -> SphereAt {
+    let mut s = SphereAt { centre: xyz(p.centre_open), radius: p.centre_open[3], spin_sc: (0.0, 1.0) };
+    if spec.time_sampling {
+        s.centre += xyz(p.travel) * u;
+        if u >= p.travel[3] {
+            s.centre += xyz(p.wrap_jump);
+        }
+        if spec.material != material_kind::FLAT {
+            let (sn, cs) = sin_cos_turns(-p.spin[3] * u / TAU);
+            s.spin_sc = (sn, cs);
+        }
+    }
+    s
+}
+
+/// One pixel's samples of `batch`, added to `acc` (the kernel's per-invocation body).
+pub fn trace_pixel(
+    p: &FrameParams,
+    batch: &Batch,
+    env: &[u32],
+    spec: &Specialisation,
+    x: u32,
+    y: u32,
+    acc: &mut Accum,
+) {
+    let seed = pixel_seed(p.eye_seed, y * p.width + x);
+    let inv_spp = p.floor_albedo[3];
+    let (corner, sx, sy) = (xyz(p.cam_corner), xyz(p.cam_step_x), xyz(p.cam_step_y));
+    let mut sum = Vec3::from_array(acc.sum);
+    for i in 0..batch.count {
+        let index = batch.first_sample + i;
+        let u = sample_2d(seed, index, dim::PIXEL);
+        let dir = normalize(corner + sx * (x as f32 + u[0]) + sy * (y as f32 + u[1]));
+        let t = if spec.time_sampling { to_unit(sample_1d_bits(seed, index, dim::TIME)) } else { 0.0 };
+        let s = sphere_at(p, spec, t);
+        let l = radiance(p, spec, env, &s, seed, index, dir);
+        if is_finite3(l) {
+            sum += l * inv_spp;
+        } else {
+            acc.nonfinite += 1;
+        }
+    }
+    acc.sum = sum.to_array();
+}
+
+/// The kernel's entry point `trace_batch` over the whole image: adds `batch`'s samples of
+/// every pixel to `accum` (one per pixel, row-major).
+pub fn trace_batch(p: &FrameParams, batch: &Batch, env: &[u32], accum: &mut [Accum], spec: &Specialisation) {
+    for y in 0..p.height {
+        for x in 0..p.width {
+            trace_pixel(p, batch, env, spec, x, y, &mut accum[(y * p.width + x) as usize]);
+        }
+    }
+}
+
+/// Renders every view of `scene` with the twin, the whole sample count as one batch (the
+/// same sums as the GPU's batches: each carries the pixel's f32 sum on): the images and the
+/// discarded samples. Rows run in parallel.
+pub fn render_frame(
+    scene: &FrameScene,
+    env: &EnvTables,
+    spec: &Specialisation,
+) -> Result<(Vec<LinearImage>, u64), ParamsError> {
+    use rayon::prelude::*;
+    let batch = Batch { first_sample: 0, count: scene.samples_per_pixel, pad: [0; 2] };
+    let mut eyes = Vec::new();
+    let mut nonfinite = 0;
+    for view in &scene.views {
+        let p = FrameParams::new(scene, view, env)?;
+        let mut accum = vec![Accum::default(); (p.width * p.height) as usize];
+        accum.par_chunks_mut(p.width as usize).enumerate().for_each(|(y, row)| {
+            for (x, acc) in row.iter_mut().enumerate() {
+                trace_pixel(&p, &batch, &env.words, spec, x as u32, y as u32, acc);
+            }
+        });
+        let mut img = LinearImage::new(p.width, p.height);
+        for (dst, a) in img.pixels.iter_mut().zip(&accum) {
+            *dst = a.sum;
+            nonfinite += u64::from(a.nonfinite);
+        }
+        eyes.push(img);
+    }
+    Ok((eyes, nonfinite))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn polynomial_trigonometry_is_accurate_to_f32() {
+        for i in -2000..=2000 {
+            let t = i as f32 / 1000.0 + 0.000_37;
+            let (s, c) = sin_cos_turns(t);
+            let (es, ec) = (std::f64::consts::TAU * f64::from(t)).sin_cos();
+            assert!((f64::from(s) - es).abs() < 4e-7 && (f64::from(c) - ec).abs() < 4e-7, "{t}");
+            for j in [-3.0f32, -0.5, 0.0, 0.25, 1.0, 7.0] {
+                let (y, x) = (t, j * 0.37 + 0.01);
+                let a = atan2(y, x);
+                let e = f64::from(y).atan2(f64::from(x));
+                assert!((f64::from(a) - e).abs() < 5e-7, "atan2({y}, {x}) = {a}, expected {e}");
+            }
+        }
+        assert_eq!(atan2(0.0, 0.0), 0.0);
+        assert!((atan2(1.0, 0.0) - 0.5 * PI).abs() < 1e-7 && (atan2(0.0, -1.0) - PI).abs() < 1e-7);
+    }
+}

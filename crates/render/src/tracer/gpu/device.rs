@@ -1,0 +1,431 @@
+//! The GPU tracer's host side: [`GpuTracer`] compiles `shaders/tracer.wgsl` once per
+//! [`Specialisation`] (pipeline override constants), uploads an environment once
+//! ([`GpuEnvironment`]) and renders a frame's eyes as batches of samples, one dispatch
+//! each, accumulated in a storage buffer.
+//!
+//! A frame is submitted ([`GpuTracer::submit`]) and collected later ([`PendingFrame::finish`]),
+//! so a caller can submit the next frame before reading this one back: the GPU then works
+//! while the CPU reads, encodes and writes (what `render_set` does). A batch holds at most
+//! [`SAMPLES_PER_DISPATCH`] camera samples, short enough for any driver watchdog (a
+//! 640 x 360 frame at 512 samples is 12 dispatches); the dispatch grid is checked against
+//! the device's workgroup limit and the buffers against its storage binding limit.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use gpu::wgpu::util::DeviceExt as _;
+use gpu::{GpuContext, GpuError, GpuInfo, wgpu};
+use study::scene::FrameScene;
+
+use super::params::{Accum, Batch, EnvTables, FrameParams, ParamsError, Specialisation};
+use crate::env::EnvironmentMap;
+use crate::io::LinearImage;
+
+/// Camera samples one dispatch traces at most: 2^22, a few milliseconds on a large GPU
+/// and a few seconds on lavapipe.
+pub const SAMPLES_PER_DISPATCH: u64 = 1 << 22;
+
+const WORKGROUP: u32 = 8;
+
+/// Errors of the GPU tracer.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuTracerError {
+    /// The device failed or rejected the work.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// The frame cannot be expressed in the kernel's parameters.
+    #[error("GPU tracer: {0}")]
+    Params(#[from] ParamsError),
+    /// The frame or map needs more than the device allows.
+    #[error("GPU tracer on {adapter}: {what}")]
+    Limit {
+        /// The adapter.
+        adapter: String,
+        /// The limit and the need.
+        what: String,
+    },
+}
+
+/// An environment map's tables on the device.
+pub struct GpuEnvironment {
+    buffer: wgpu::Buffer,
+    tables: EnvTables,
+}
+
+impl GpuEnvironment {
+    /// The tables as uploaded (what the CPU twin reads).
+    pub fn tables(&self) -> &EnvTables {
+        &self.tables
+    }
+}
+
+/// A rendered frame of the GPU tracer.
+#[derive(Clone, Debug)]
+pub struct GpuFrame {
+    /// One linear image per view of the scene, in order.
+    pub eyes: Vec<LinearImage>,
+    /// Samples whose radiance was NaN or infinite (discarded).
+    pub nonfinite_samples: u64,
+    /// Camera samples traced.
+    pub camera_samples: u64,
+    /// GPU time of all the frame's dispatches (timestamp queries), when the device has them.
+    pub gpu_seconds: Option<f64>,
+    /// Wall time from submission to the readback's end.
+    pub wall_seconds: f64,
+    /// Dispatches (batches x eyes).
+    pub dispatches: u32,
+}
+
+struct PendingEye {
+    width: u32,
+    height: u32,
+    staging: wgpu::Buffer,
+    timestamps: Option<wgpu::Buffer>,
+}
+
+/// A submitted frame; [`PendingFrame::finish`] waits for it and reads it back.
+pub struct PendingFrame<'a> {
+    tracer: &'a GpuTracer,
+    eyes: Vec<PendingEye>,
+    camera_samples: u64,
+    dispatches: u32,
+    submitted: Instant,
+}
+
+/// The GPU distribution ray tracer on one device.
+pub struct GpuTracer {
+    ctx: GpuContext,
+    module: wgpu::ShaderModule,
+    layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+    pipelines: HashMap<Specialisation, wgpu::ComputePipeline>,
+    timestamps: bool,
+}
+
+/// The assembled kernel source (sampler included, sampling dimensions declared).
+pub fn kernel_source() -> Result<String, GpuError> {
+    super::assembler().assemble("tracer.wgsl", include_str!("../../../shaders/tracer.wgsl"))
+}
+
+fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl GpuTracer {
+    /// Compiles the kernel for `ctx`'s device.
+    pub fn new(ctx: GpuContext) -> Result<Self, GpuError> {
+        let source = kernel_source()?;
+        gpu::validate_wgsl("tracer.wgsl", &source)?;
+        let device = &ctx.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("tracer.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("tracer"),
+            entries: &[
+                storage_entry(0, true),
+                storage_entry(1, true),
+                storage_entry(2, false),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("tracer"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let timestamps = ctx.info.features.contains(wgpu::Features::TIMESTAMP_QUERY);
+        Ok(GpuTracer { ctx, module, layout, pipeline_layout, pipelines: HashMap::new(), timestamps })
+    }
+
+    /// The adapter and device.
+    pub fn info(&self) -> &GpuInfo {
+        &self.ctx.info
+    }
+
+    /// Uploads `env`'s tables.
+    pub fn environment(&self, env: &EnvironmentMap) -> Result<GpuEnvironment, GpuTracerError> {
+        let tables = EnvTables::new(env);
+        let limit = self.ctx.info.limits.max_storage_buffer_binding_size;
+        if tables.byte_len() > limit {
+            return Err(self.limit(format!(
+                "the environment map's tables need {} bytes, more than the {limit}-byte storage binding limit",
+                tables.byte_len()
+            )));
+        }
+        let buffer = self.ctx.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("environment"),
+            contents: bytemuck::cast_slice(&tables.words),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        Ok(GpuEnvironment { buffer, tables })
+    }
+
+    fn limit(&self, what: String) -> GpuTracerError {
+        GpuTracerError::Limit { adapter: self.ctx.info.short(), what }
+    }
+
+    /// The pipeline of `spec`, compiled on first use.
+    pub fn pipeline(&mut self, spec: Specialisation) -> Result<&wgpu::ComputePipeline, GpuError> {
+        if !self.pipelines.contains_key(&spec) {
+            let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+            let constants = spec.constants();
+            let pipeline = self.ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("trace_batch"),
+                layout: Some(&self.pipeline_layout),
+                module: &self.module,
+                entry_point: Some("trace_batch"),
+                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+                cache: None,
+            });
+            if let Some(e) = pollster::block_on(scope.pop()) {
+                return Err(GpuError::Validation { what: format!("tracer pipeline {spec:?}"), message: e.to_string() });
+            }
+            self.pipelines.insert(spec, pipeline);
+        }
+        Ok(&self.pipelines[&spec])
+    }
+
+    /// Renders `scene` with its cheapest specialisation and waits for it.
+    pub fn render_frame(&mut self, scene: &FrameScene, env: &GpuEnvironment) -> Result<GpuFrame, GpuTracerError> {
+        let spec = Specialisation::of(scene);
+        self.render_frame_with(scene, env, spec)
+    }
+
+    /// Renders `scene` with the kernel specialised as `spec` (which must cover the scene:
+    /// time sampling on where the scene moves during an open shutter, its material) and waits.
+    pub fn render_frame_with(
+        &mut self,
+        scene: &FrameScene,
+        env: &GpuEnvironment,
+        spec: Specialisation,
+    ) -> Result<GpuFrame, GpuTracerError> {
+        self.pipeline(spec)?;
+        self.submit_with(scene, env, spec)?.finish()
+    }
+
+    /// Submits `scene` (its cheapest specialisation, compiled beforehand with
+    /// [`Self::pipeline`] or compiled here) without waiting.
+    pub fn submit(&mut self, scene: &FrameScene, env: &GpuEnvironment) -> Result<PendingFrame<'_>, GpuTracerError> {
+        let spec = Specialisation::of(scene);
+        self.pipeline(spec)?;
+        self.submit_with(scene, env, spec)
+    }
+
+    fn submit_with(
+        &self,
+        scene: &FrameScene,
+        env: &GpuEnvironment,
+        spec: Specialisation,
+    ) -> Result<PendingFrame<'_>, GpuTracerError> {
+        let device = &self.ctx.device;
+        let pipeline = &self.pipelines[&spec];
+        let submitted = Instant::now();
+        let spp = scene.samples_per_pixel;
+        let limits = &self.ctx.info.limits;
+        let mut eyes = Vec::with_capacity(scene.views.len());
+        let mut camera_samples = 0u64;
+        let mut dispatches = 0u32;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        for view in &scene.views {
+            let params = FrameParams::new(scene, view, &env.tables)?;
+            let (w, h) = (params.width, params.height);
+            let groups = (w.div_ceil(WORKGROUP), h.div_ceil(WORKGROUP));
+            let max_groups = limits.max_compute_workgroups_per_dimension;
+            if groups.0 > max_groups || groups.1 > max_groups {
+                return Err(self.limit(format!(
+                    "an image {w}x{h} needs {}x{} workgroups, more than the {max_groups} per dimension allowed",
+                    groups.0, groups.1
+                )));
+            }
+            let pixels = u64::from(w) * u64::from(h);
+            let accum_bytes = pixels * std::mem::size_of::<Accum>() as u64;
+            if accum_bytes > limits.max_storage_buffer_binding_size {
+                return Err(self.limit(format!(
+                    "an image {w}x{h} needs a {accum_bytes}-byte accumulator, more than the {}-byte storage binding limit",
+                    limits.max_storage_buffer_binding_size
+                )));
+            }
+            let params_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("frame params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::STORAGE,
+            });
+            // wgpu zero-initialises new buffers.
+            let accum = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("accumulator"),
+                size: accum_bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            let staging = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("accumulator readback"),
+                size: accum_bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let per_batch = (SAMPLES_PER_DISPATCH / pixels).clamp(1, u64::from(u32::MAX)) as u32;
+            let batches: Vec<Batch> = (0..spp.div_ceil(per_batch))
+                .map(|b| {
+                    let first = b * per_batch;
+                    Batch { first_sample: first, count: per_batch.min(spp - first), pad: [0; 2] }
+                })
+                .collect();
+            let queries = (self.timestamps && !batches.is_empty()).then(|| {
+                let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("tracer timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: 2,
+                });
+                let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamp resolve"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                });
+                let read = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamp readback"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                (set, resolve, read)
+            });
+            let last = batches.len().saturating_sub(1);
+            for (i, batch) in batches.iter().enumerate() {
+                let batch_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("batch"),
+                    contents: bytemuck::bytes_of(batch),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("tracer"),
+                    layout: &self.layout,
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: params_buffer.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 1, resource: env.buffer.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 2, resource: accum.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 3, resource: batch_buffer.as_entire_binding() },
+                    ],
+                });
+                let mut encoder =
+                    device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("batch") });
+                {
+                    let timestamp_writes = queries.as_ref().map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
+                        query_set: set,
+                        beginning_of_pass_write_index: (i == 0).then_some(0),
+                        end_of_pass_write_index: (i == last).then_some(1),
+                    });
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("trace_batch"),
+                        timestamp_writes,
+                    });
+                    pass.set_pipeline(pipeline);
+                    pass.set_bind_group(0, &bind, &[]);
+                    pass.dispatch_workgroups(groups.0, groups.1, 1);
+                }
+                if i == last {
+                    encoder.copy_buffer_to_buffer(&accum, 0, &staging, 0, accum_bytes);
+                    if let Some((set, resolve, read)) = &queries {
+                        encoder.resolve_query_set(set, 0..2, resolve, 0);
+                        encoder.copy_buffer_to_buffer(resolve, 0, read, 0, 16);
+                    }
+                }
+                self.ctx.queue.submit([encoder.finish()]);
+                dispatches += 1;
+            }
+            if batches.is_empty() {
+                // No samples: the zero accumulator is the image.
+                let mut encoder = device.create_command_encoder(&Default::default());
+                encoder.copy_buffer_to_buffer(&accum, 0, &staging, 0, accum_bytes);
+                self.ctx.queue.submit([encoder.finish()]);
+            }
+            camera_samples += pixels * u64::from(spp);
+            eyes.push(PendingEye { width: w, height: h, staging, timestamps: queries.map(|(_, _, read)| read) });
+        }
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Validation { what: "tracer dispatch".into(), message: e.to_string() }.into());
+        }
+        Ok(PendingFrame { tracer: self, eyes, camera_samples, dispatches, submitted })
+    }
+}
+
+fn map_read(ctx: &GpuContext, buffer: &wgpu::Buffer, what: &str) -> Result<Vec<u8>, GpuError> {
+    let slice = buffer.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        // The receiver waits below; a closed channel means it gave up already.
+        let _ = tx.send(r);
+    });
+    ctx.device
+        .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+        .map_err(|source| GpuError::Poll { what: what.to_owned(), source })?;
+    match rx.recv() {
+        Ok(Ok(())) => {}
+        Ok(Err(source)) => return Err(GpuError::Map { what: what.to_owned(), source }),
+        Err(_) => {
+            return Err(GpuError::Readback { what: what.to_owned(), message: "the map callback never ran".into() });
+        }
+    }
+    let bytes = slice
+        .get_mapped_range()
+        .map_err(|e| GpuError::Readback { what: what.to_owned(), message: e.to_string() })?
+        .to_vec();
+    buffer.unmap();
+    Ok(bytes)
+}
+
+impl PendingFrame<'_> {
+    /// Waits for the frame and reads it back.
+    pub fn finish(self) -> Result<GpuFrame, GpuTracerError> {
+        let ctx = &self.tracer.ctx;
+        let mut out = Vec::with_capacity(self.eyes.len());
+        let mut nonfinite = 0u64;
+        let mut gpu_seconds = if self.tracer.timestamps { Some(0.0) } else { None };
+        let period_ns = f64::from(ctx.queue.get_timestamp_period());
+        for eye in &self.eyes {
+            let bytes = map_read(ctx, &eye.staging, "the tracer's accumulator")?;
+            let accum: &[Accum] = bytemuck::cast_slice(&bytes);
+            let mut img = LinearImage::new(eye.width, eye.height);
+            for (dst, a) in img.pixels.iter_mut().zip(accum) {
+                *dst = a.sum;
+                nonfinite += u64::from(a.nonfinite);
+            }
+            out.push(img);
+            match (&eye.timestamps, gpu_seconds.as_mut()) {
+                (Some(read), Some(total)) => {
+                    let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&map_read(ctx, read, "timestamps")?);
+                    *total += ticks[1].wrapping_sub(ticks[0]) as f64 * period_ns * 1e-9;
+                }
+                _ => gpu_seconds = None,
+            }
+        }
+        Ok(GpuFrame {
+            eyes: out,
+            nonfinite_samples: nonfinite,
+            camera_samples: self.camera_samples,
+            gpu_seconds,
+            wall_seconds: self.submitted.elapsed().as_secs_f64(),
+            dispatches: self.dispatches,
+        })
+    }
+}

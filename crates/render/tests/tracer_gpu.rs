@@ -1,0 +1,264 @@
+//! The GPU tracer (`shaders/tracer.wgsl`) against its f32 CPU twin (`tracer::gpu::cpu`) and
+//! against the f64 CPU tracer, on small images of the study's own scenes (the design file,
+//! shrunk to 64 x 36), plus the physics tests of `tracer_physics.rs` that have a closed
+//! form (white furnace, motion coverage) and the f32 hard cases. Without a GPU adapter each
+//! test says SKIPPED (and fails under `BLURLAB_REQUIRE_GPU=1`).
+
+mod common;
+
+use common::{L, assert_coverage_matches, coverage_scene, flat, furnace_scene, scene, study_camera, uniform};
+use glam::DVec3;
+use render::env::EnvironmentMap;
+use render::io::LinearImage;
+use render::tracer::gpu::params::{EnvTables, Specialisation, material_kind};
+use render::tracer::gpu::{GpuTracer, cpu};
+use study::design::Design;
+use study::ids::{StimulusId, View};
+use study::scene::{FrameScene, Material, Shutter};
+
+const W: u32 = 64;
+const H: u32 = 36;
+
+fn tracer(test: &str) -> Option<GpuTracer> {
+    let ctx = gpu::test_context(test)?;
+    Some(GpuTracer::new(ctx).expect("the tracer kernel compiles"))
+}
+
+fn design() -> Design {
+    Design::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml")).unwrap()
+}
+
+/// Stimulus `M{m}-S3-T{t}` of the study at the benchmark frame (the sphere near the image
+/// centre), at `spp` samples per pixel, every eye shrunk to 64 x 36 pixels.
+fn study_scene(design: &Design, material: u8, shutter: u8, view: View, spp: u32) -> FrameScene {
+    let frame = render::tracer::bench::benchmark_frame(design, 1, false).unwrap().frame;
+    let id = StimulusId { material, speed: 3, shutter, samples: 1, view };
+    let mut s = design.frame_scene(&id, frame).unwrap();
+    s.samples_per_pixel = spp;
+    for v in &mut s.views {
+        (v.camera.width, v.camera.height) = (W, H);
+    }
+    s
+}
+
+fn max_abs_difference(a: &LinearImage, b: &LinearImage) -> (f32, usize) {
+    let mut worst = (0.0f32, 0);
+    for (i, (p, q)) in a.pixels.iter().zip(&b.pixels).enumerate() {
+        for c in 0..3 {
+            let d = (p[c] - q[c]).abs() / (1.0 + q[c].abs());
+            if d > worst.0 {
+                worst = (d, i);
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn the_kernel_agrees_with_its_cpu_twin_per_pixel() {
+    let Some(mut gpu) = tracer("the_kernel_agrees_with_its_cpu_twin_per_pixel") else { return };
+    let design = design();
+    let env = EnvironmentMap::from_lighting(&design.lighting).unwrap();
+    let genv = gpu.environment(&env).unwrap();
+    let mut worst_all = 0.0f32;
+    for material in 1..=3 {
+        for shutter in [1, 5] {
+            for view in [View::Mono, View::Stereo] {
+                let s = study_scene(&design, material, shutter, view, 8);
+                let spec = Specialisation::of(&s);
+                assert_eq!(spec.time_sampling, shutter == 5);
+                let out = gpu.render_frame(&s, &genv).unwrap();
+                let (twin, twin_bad) = cpu::render_frame(&s, genv.tables(), &spec).unwrap();
+                assert_eq!(out.eyes.len(), twin.len());
+                assert_eq!(out.nonfinite_samples, twin_bad);
+                assert_eq!(out.camera_samples, u64::from(W * H * 8) * twin.len() as u64);
+                for (g, t) in out.eyes.iter().zip(&twin) {
+                    // Tolerance: 1e-4 relative per channel. The same operations in the same
+                    // order differ only where the device rounds a division or square root
+                    // otherwise (Vulkan allows 2.5 ulp and 3 ulp); lavapipe agrees far closer.
+                    let (worst, at) = max_abs_difference(g, t);
+                    worst_all = worst_all.max(worst);
+                    assert!(
+                        worst < 1e-4,
+                        "M{material} T{shutter} {view:?}: pixel {at} GPU {:?} twin {:?}",
+                        g.pixels[at],
+                        t.pixels[at]
+                    );
+                    let mean: f32 = g.pixels.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>();
+                    assert!(mean > 0.0, "an image with light in it");
+                }
+            }
+        }
+    }
+    eprintln!("largest relative difference GPU - twin: {worst_all:e}");
+}
+
+/// Per 8 x 8 block and channel, the paired difference of two independent renders of the
+/// same scene: its mean over the block divided by its standard error (from the block's own
+/// differences). Both estimators unbiased, each z is about standard normal.
+fn block_z_scores(a: &LinearImage, b: &LinearImage) -> Vec<f64> {
+    let mut out = Vec::new();
+    for by in 0..a.height / 8 {
+        for bx in 0..a.width / 8 {
+            for c in 0..3 {
+                let d: Vec<f64> = (0..64)
+                    .map(|k| {
+                        let (x, y) = (bx * 8 + k % 8, by * 8 + k / 8);
+                        f64::from(a.get(x, y)[c]) - f64::from(b.get(x, y)[c])
+                    })
+                    .collect();
+                let s = study::stats::Summary::of(&d);
+                let se = s.standard_error();
+                out.push(if se > 0.0 {
+                    s.mean / se
+                } else if s.mean == 0.0 {
+                    0.0
+                } else {
+                    f64::INFINITY
+                });
+            }
+        }
+    }
+    out
+}
+
+fn assert_agrees_with_f64(gpu: &mut GpuTracer, s: &FrameScene, what: &str) {
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let genv = gpu.environment(&env).unwrap();
+    let g = gpu.render_frame(s, &genv).unwrap();
+    let c = render::tracer::render_frame(s, &env);
+    assert_eq!(g.nonfinite_samples, 0, "{what}: NaN or infinite samples on the GPU");
+    for (ge, ce) in g.eyes.iter().zip(&c.eyes) {
+        assert!(ge.pixels.iter().flatten().all(|v| v.is_finite() && *v >= 0.0), "{what}");
+        let z = block_z_scores(ge, ce);
+        // 4.5 sd: over all blocks of all tests here (about 2,000 z-scores) a false alarm has
+        // probability about 1e-2; a bias of a few per cent fails many blocks at once.
+        let worst = z.iter().fold(0.0f64, |m, z| m.max(z.abs()));
+        let rms = (z.iter().map(|z| z * z).sum::<f64>() / z.len() as f64).sqrt();
+        eprintln!("{what}: {} blocks, largest |z| {worst:.2}, RMS z {rms:.2}", z.len());
+        assert!(worst < 4.5, "{what}: a block differs by {worst:.2} standard errors");
+        assert!(rms < 1.6, "{what}: RMS z {rms:.2}: the difference is not noise");
+    }
+}
+
+#[test]
+fn every_material_agrees_with_the_f64_tracer_within_monte_carlo_error() {
+    let Some(mut gpu) = tracer("every_material_agrees_with_the_f64_tracer_within_monte_carlo_error") else { return };
+    let design = design();
+    for material in 1..=3 {
+        for shutter in [1, 5] {
+            let s = study_scene(&design, material, shutter, View::Mono, 32);
+            assert_agrees_with_f64(&mut gpu, &s, &format!("M{material}-S3-T{shutter}"));
+        }
+    }
+}
+
+#[test]
+fn specialisations_change_the_cost_not_the_image() {
+    // A still frame rendered by the time-sampling kernel, and a flat sphere by the noise
+    // kernel (whose blend of two equal albedos is that albedo), give the same bytes: sample
+    // values do not depend on which dimensions are drawn.
+    let Some(mut gpu) = tracer("specialisations_change_the_cost_not_the_image") else { return };
+    let design = design();
+    let env = EnvironmentMap::from_lighting(&design.lighting).unwrap();
+    let genv = gpu.environment(&env).unwrap();
+    let still = study_scene(&design, 1, 1, View::Stereo, 4);
+    let cheapest = Specialisation::of(&still);
+    assert_eq!(cheapest, Specialisation { time_sampling: false, material: material_kind::FLAT });
+    let base = gpu.render_frame(&still, &genv).unwrap();
+    for spec in [
+        Specialisation { time_sampling: true, material: material_kind::FLAT },
+        Specialisation { time_sampling: true, material: material_kind::NOISE },
+        Specialisation { time_sampling: false, material: material_kind::NOISE },
+    ] {
+        let other = gpu.render_frame_with(&still, &genv, spec).unwrap();
+        assert_eq!(other.eyes, base.eyes, "{spec:?}");
+    }
+    // And a zero-length shutter with time sampling forced on (the hard case of a shutter
+    // interval of no width) is the still frame too.
+    let mut moving = study_scene(&design, 3, 1, View::Mono, 4);
+    moving.shutter = Shutter { open: moving.shutter.open, close: moving.shutter.open };
+    let a = gpu.render_frame(&moving, &genv).unwrap();
+    let b = gpu
+        .render_frame_with(&moving, &genv, Specialisation { time_sampling: true, material: material_kind::NOISE })
+        .unwrap();
+    assert_eq!(a.eyes, b.eyes);
+    assert_eq!(b.nonfinite_samples, 0);
+}
+
+#[test]
+fn white_furnace_on_the_gpu() {
+    let Some(mut gpu) = tracer("white_furnace_on_the_gpu") else { return };
+    let s = furnace_scene();
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let genv = gpu.environment(&env).unwrap();
+    let out = gpu.render_frame(&s, &genv).unwrap();
+    assert_eq!(out.nonfinite_samples, 0);
+    let values: Vec<f64> = out.eyes[0].pixels.iter().map(|p| f64::from(p[0])).collect();
+    let summary = study::stats::Summary::of(&values);
+    let se = summary.standard_error();
+    assert!(se > 0.0 && se < 0.01, "se {se}");
+    assert!((summary.mean - L).abs() < 3.0 * se + 1e-5, "mean {} vs {L}, se {se}", summary.mean);
+}
+
+#[test]
+fn motion_coverage_on_the_gpu_matches_the_analytic_fraction() {
+    let Some(mut gpu) = tracer("motion_coverage_on_the_gpu_matches_the_analytic_fraction") else { return };
+    let s = coverage_scene(2.238, 1.0, 128);
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let genv = gpu.environment(&env).unwrap();
+    assert_coverage_matches(&s, &gpu.render_frame(&s, &genv).unwrap().eyes[0], 128);
+}
+
+#[test]
+fn f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer() {
+    let Some(mut gpu) = tracer("f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer") else { return };
+    let checker =
+        Material::Checker { albedo_a: [0.8; 3], albedo_b: [0.1; 3], squares_around: 16, squares_pole_to_pole: 8 };
+    let lit = common::default_env();
+
+    // The sphere far from the origin (the wrapped path puts it metres away; here 40 m),
+    // moving, with the camera following at the study's distance.
+    let far = DVec3::new(40.0, 0.0, -25.0);
+    let mut s = scene(study_camera(W, H), checker.clone(), lit.clone(), 32);
+    s.sphere.start += far;
+    s.sphere.velocity = DVec3::new(2.238, 0.0, 0.0);
+    s.shutter = Shutter { open: 0.0, close: 1.0 / 30.0 };
+    s.views[0].camera = study::scene::Camera::look_at(
+        DVec3::new(0.0, 0.5, 3.0) + far,
+        DVec3::new(0.0, 0.1, 0.0) + far,
+        0.05,
+        0.036,
+        W,
+        H,
+    );
+    assert_agrees_with_f64(&mut gpu, &s, "sphere 47 m from the origin");
+
+    // Grazing rays: the camera 1 mm above the floor, looking along it at the sphere's
+    // silhouette and contact point.
+    let mut s = scene(study_camera(W, H), checker.clone(), lit.clone(), 32);
+    s.views[0].camera =
+        study::scene::Camera::look_at(DVec3::new(0.0, 0.001, 1.0), DVec3::new(0.0, 0.001, 0.0), 0.05, 0.036, W, H);
+    assert_agrees_with_f64(&mut gpu, &s, "grazing the floor and the silhouette");
+
+    // Self-intersection: a close-up of the contact region, where every secondary ray starts
+    // on a surface and most shadow rays pass within a hair of the other one. Acne would
+    // darken it against the f64 tracer.
+    let mut s = scene(study_camera(W, H), flat(0.7), lit, 32);
+    s.views[0].camera =
+        study::scene::Camera::look_at(DVec3::new(0.0, 0.05, 0.4), DVec3::new(0.0, 0.01, 0.0), 0.05, 0.036, W, H);
+    assert_agrees_with_f64(&mut gpu, &s, "contact point close-up");
+
+    // A zero-length shutter on a moving sphere with time sampling forced on.
+    let mut s = scene(study_camera(W, H), checker, uniform(0.8), 16);
+    s.sphere.velocity = DVec3::new(2.238, 0.0, 0.0);
+    s.shutter = Shutter { open: 0.02, close: 0.02 };
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let genv = gpu.environment(&env).unwrap();
+    let forced = Specialisation { time_sampling: true, material: material_kind::CHECKER };
+    let out = gpu.render_frame_with(&s, &genv, forced).unwrap();
+    assert_eq!(out.nonfinite_samples, 0);
+    assert_eq!(out.eyes, gpu.render_frame(&s, &genv).unwrap().eyes);
+    let (twin, _) = cpu::render_frame(&s, &EnvTables::new(&env), &forced).unwrap();
+    assert!(max_abs_difference(&out.eyes[0], &twin[0]).0 < 1e-4);
+}
