@@ -56,7 +56,7 @@ fn max_abs_difference(a: &LinearImage, b: &LinearImage) -> (f32, usize) {
 
 #[test]
 fn the_kernel_agrees_with_its_cpu_twin_per_pixel() {
-    let Some(mut gpu) = tracer("the_kernel_agrees_with_its_cpu_twin_per_pixel") else { return };
+    let Some(gpu) = tracer("the_kernel_agrees_with_its_cpu_twin_per_pixel") else { return };
     let design = design();
     let env = EnvironmentMap::from_lighting(&design.lighting).unwrap();
     let genv = gpu.environment(&env).unwrap();
@@ -122,7 +122,7 @@ fn block_z_scores(a: &LinearImage, b: &LinearImage) -> Vec<f64> {
     out
 }
 
-fn assert_agrees_with_f64(gpu: &mut GpuTracer, s: &FrameScene, what: &str) {
+fn assert_agrees_with_f64(gpu: &GpuTracer, s: &FrameScene, what: &str) {
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let genv = gpu.environment(&env).unwrap();
     let g = gpu.render_frame(s, &genv).unwrap();
@@ -143,12 +143,12 @@ fn assert_agrees_with_f64(gpu: &mut GpuTracer, s: &FrameScene, what: &str) {
 
 #[test]
 fn every_material_agrees_with_the_f64_tracer_within_monte_carlo_error() {
-    let Some(mut gpu) = tracer("every_material_agrees_with_the_f64_tracer_within_monte_carlo_error") else { return };
+    let Some(gpu) = tracer("every_material_agrees_with_the_f64_tracer_within_monte_carlo_error") else { return };
     let design = design();
     for material in 1..=3 {
         for shutter in [1, 5] {
             let s = study_scene(&design, material, shutter, View::Mono, 32);
-            assert_agrees_with_f64(&mut gpu, &s, &format!("M{material}-S3-T{shutter}"));
+            assert_agrees_with_f64(&gpu, &s, &format!("M{material}-S3-T{shutter}"));
         }
     }
 }
@@ -158,7 +158,7 @@ fn specialisations_change_the_cost_not_the_image() {
     // A still frame rendered by the time-sampling kernel, and a flat sphere by the noise
     // kernel (whose blend of two equal albedos is that albedo), give the same bytes: sample
     // values do not depend on which dimensions are drawn.
-    let Some(mut gpu) = tracer("specialisations_change_the_cost_not_the_image") else { return };
+    let Some(gpu) = tracer("specialisations_change_the_cost_not_the_image") else { return };
     let design = design();
     let env = EnvironmentMap::from_lighting(&design.lighting).unwrap();
     let genv = gpu.environment(&env).unwrap();
@@ -188,7 +188,7 @@ fn specialisations_change_the_cost_not_the_image() {
 
 #[test]
 fn white_furnace_on_the_gpu() {
-    let Some(mut gpu) = tracer("white_furnace_on_the_gpu") else { return };
+    let Some(gpu) = tracer("white_furnace_on_the_gpu") else { return };
     let s = furnace_scene();
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let genv = gpu.environment(&env).unwrap();
@@ -203,7 +203,7 @@ fn white_furnace_on_the_gpu() {
 
 #[test]
 fn motion_coverage_on_the_gpu_matches_the_analytic_fraction() {
-    let Some(mut gpu) = tracer("motion_coverage_on_the_gpu_matches_the_analytic_fraction") else { return };
+    let Some(gpu) = tracer("motion_coverage_on_the_gpu_matches_the_analytic_fraction") else { return };
     let s = coverage_scene(2.238, 1.0, 128);
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let genv = gpu.environment(&env).unwrap();
@@ -212,7 +212,7 @@ fn motion_coverage_on_the_gpu_matches_the_analytic_fraction() {
 
 #[test]
 fn f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer() {
-    let Some(mut gpu) = tracer("f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer") else { return };
+    let Some(gpu) = tracer("f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer") else { return };
     let checker =
         Material::Checker { albedo_a: [0.8; 3], albedo_b: [0.1; 3], squares_around: 16, squares_pole_to_pole: 8 };
     let lit = common::default_env();
@@ -232,14 +232,14 @@ fn f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer() {
         W,
         H,
     );
-    assert_agrees_with_f64(&mut gpu, &s, "sphere 47 m from the origin");
+    assert_agrees_with_f64(&gpu, &s, "sphere 47 m from the origin");
 
     // Grazing rays: the camera 1 mm above the floor, looking along it at the sphere's
     // silhouette and contact point.
     let mut s = scene(study_camera(W, H), checker.clone(), lit.clone(), 32);
     s.views[0].camera =
         study::scene::Camera::look_at(DVec3::new(0.0, 0.001, 1.0), DVec3::new(0.0, 0.001, 0.0), 0.05, 0.036, W, H);
-    assert_agrees_with_f64(&mut gpu, &s, "grazing the floor and the silhouette");
+    assert_agrees_with_f64(&gpu, &s, "grazing the floor and the silhouette");
 
     // Self-intersection: a close-up of the contact region, where every secondary ray starts
     // on a surface and most shadow rays pass within a hair of the other one. Acne would
@@ -247,7 +247,7 @@ fn f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer() {
     let mut s = scene(study_camera(W, H), flat(0.7), lit, 32);
     s.views[0].camera =
         study::scene::Camera::look_at(DVec3::new(0.0, 0.05, 0.4), DVec3::new(0.0, 0.01, 0.0), 0.05, 0.036, W, H);
-    assert_agrees_with_f64(&mut gpu, &s, "contact point close-up");
+    assert_agrees_with_f64(&gpu, &s, "contact point close-up");
 
     // A zero-length shutter on a moving sphere with time sampling forced on.
     let mut s = scene(study_camera(W, H), checker, uniform(0.8), 16);
@@ -261,4 +261,40 @@ fn f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer() {
     assert_eq!(out.eyes, gpu.render_frame(&s, &genv).unwrap().eyes);
     let (twin, _) = cpu::render_frame(&s, &EnvTables::new(&env), &forced).unwrap();
     assert!(max_abs_difference(&out.eyes[0], &twin[0]).0 < 1e-4);
+}
+
+#[test]
+fn nested_prefixes_are_the_lower_sample_counts_of_the_same_stream() {
+    let Some(gpu) = tracer("nested_prefixes_are_the_lower_sample_counts_of_the_same_stream") else { return };
+    let design = design();
+    let env = EnvironmentMap::from_lighting(&design.lighting).unwrap();
+    let genv = gpu.environment(&env).unwrap();
+    let top = study_scene(&design, 3, 5, View::Stereo, 16);
+    let nested = gpu.submit_nested(&top, &genv, &[12, 4, 4, 0, 99]).unwrap().finish().unwrap();
+    let levels: Vec<u32> = nested.prefixes.iter().map(|p| p.samples_per_pixel).collect();
+    assert_eq!(levels, [4, 12], "duplicates, zero and counts above the stream's are dropped");
+    assert_eq!(nested.eyes, gpu.render_frame(&top, &genv).unwrap().eyes, "the full stream is the plain frame");
+    let mut previous = 0.0;
+    for prefix in &nested.prefixes {
+        let mut alone = top.clone();
+        alone.samples_per_pixel = prefix.samples_per_pixel;
+        let frame = gpu.render_frame(&alone, &genv).unwrap();
+        assert_eq!(prefix.camera_samples, frame.camera_samples);
+        assert_eq!(prefix.nonfinite_samples, frame.nonfinite_samples);
+        for (a, b) in prefix.eyes.iter().zip(&frame.eyes) {
+            // The same samples; only the division by the count is rounded differently.
+            let (worst, at) = max_abs_difference(a, b);
+            assert!(
+                worst < 1e-6,
+                "{} spp: pixel {at}: {:?} vs {:?}",
+                prefix.samples_per_pixel,
+                a.pixels[at],
+                b.pixels[at]
+            );
+        }
+        if let Some(t) = prefix.gpu_seconds {
+            assert!(t >= previous && t <= nested.gpu_seconds.unwrap());
+            previous = t;
+        }
+    }
 }

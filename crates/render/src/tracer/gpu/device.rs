@@ -11,6 +11,7 @@
 //! the device's workgroup limit and the buffers against its storage binding limit.
 
 use std::collections::HashMap;
+use std::sync::Mutex;
 use std::time::Instant;
 
 use gpu::wgpu::util::DeviceExt as _;
@@ -74,12 +75,33 @@ pub struct GpuFrame {
     pub wall_seconds: f64,
     /// Dispatches (batches x eyes).
     pub dispatches: u32,
+    /// The frame at each earlier checkpoint of [`GpuTracer::submit_nested`] (prefixes of the
+    /// same sample stream), fewest samples first; empty for a plain frame.
+    pub prefixes: Vec<GpuPrefix>,
+}
+
+/// A frame read out after the first `samples_per_pixel` samples of a longer stream.
+#[derive(Clone, Debug)]
+pub struct GpuPrefix {
+    /// Samples per pixel so far.
+    pub samples_per_pixel: u32,
+    /// One linear image per view: the mean of those samples.
+    pub eyes: Vec<LinearImage>,
+    /// Discarded samples among them.
+    pub nonfinite_samples: u64,
+    /// Camera samples traced so far (all eyes).
+    pub camera_samples: u64,
+    /// GPU time from the first dispatch to the end of this prefix's last one, when the
+    /// device has timestamps: the cost of rendering this sample count alone.
+    pub gpu_seconds: Option<f64>,
 }
 
 struct PendingEye {
     width: u32,
     height: u32,
-    staging: wgpu::Buffer,
+    /// One readback buffer per checkpoint.
+    staging: Vec<wgpu::Buffer>,
+    /// Timestamps: the first dispatch's start, then each checkpoint's end.
     timestamps: Option<wgpu::Buffer>,
 }
 
@@ -87,7 +109,7 @@ struct PendingEye {
 pub struct PendingFrame<'a> {
     tracer: &'a GpuTracer,
     eyes: Vec<PendingEye>,
-    camera_samples: u64,
+    checkpoints: Vec<u32>,
     dispatches: u32,
     submitted: Instant,
 }
@@ -98,7 +120,7 @@ pub struct GpuTracer {
     module: wgpu::ShaderModule,
     layout: wgpu::BindGroupLayout,
     pipeline_layout: wgpu::PipelineLayout,
-    pipelines: HashMap<Specialisation, wgpu::ComputePipeline>,
+    pipelines: Mutex<HashMap<Specialisation, wgpu::ComputePipeline>>,
     timestamps: bool,
 }
 
@@ -154,7 +176,7 @@ impl GpuTracer {
             immediate_size: 0,
         });
         let timestamps = ctx.info.features.contains(wgpu::Features::TIMESTAMP_QUERY);
-        Ok(GpuTracer { ctx, module, layout, pipeline_layout, pipelines: HashMap::new(), timestamps })
+        Ok(GpuTracer { ctx, module, layout, pipeline_layout, pipelines: Mutex::new(HashMap::new()), timestamps })
     }
 
     /// The adapter and device.
@@ -185,65 +207,80 @@ impl GpuTracer {
     }
 
     /// The pipeline of `spec`, compiled on first use.
-    pub fn pipeline(&mut self, spec: Specialisation) -> Result<&wgpu::ComputePipeline, GpuError> {
-        if !self.pipelines.contains_key(&spec) {
-            let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
-            let constants = spec.constants();
-            let pipeline = self.ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("trace_batch"),
-                layout: Some(&self.pipeline_layout),
-                module: &self.module,
-                entry_point: Some("trace_batch"),
-                compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
-                cache: None,
-            });
-            if let Some(e) = pollster::block_on(scope.pop()) {
-                return Err(GpuError::Validation { what: format!("tracer pipeline {spec:?}"), message: e.to_string() });
-            }
-            self.pipelines.insert(spec, pipeline);
+    pub fn pipeline(&self, spec: Specialisation) -> Result<wgpu::ComputePipeline, GpuError> {
+        let mut pipelines = self.pipelines.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(p) = pipelines.get(&spec) {
+            return Ok(p.clone());
         }
-        Ok(&self.pipelines[&spec])
+        let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let constants = spec.constants();
+        let pipeline = self.ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("trace_batch"),
+            layout: Some(&self.pipeline_layout),
+            module: &self.module,
+            entry_point: Some("trace_batch"),
+            compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Validation { what: format!("tracer pipeline {spec:?}"), message: e.to_string() });
+        }
+        pipelines.insert(spec, pipeline.clone());
+        Ok(pipeline)
     }
 
     /// Renders `scene` with its cheapest specialisation and waits for it.
-    pub fn render_frame(&mut self, scene: &FrameScene, env: &GpuEnvironment) -> Result<GpuFrame, GpuTracerError> {
-        let spec = Specialisation::of(scene);
-        self.render_frame_with(scene, env, spec)
+    pub fn render_frame(&self, scene: &FrameScene, env: &GpuEnvironment) -> Result<GpuFrame, GpuTracerError> {
+        self.submit(scene, env)?.finish()
     }
 
     /// Renders `scene` with the kernel specialised as `spec` (which must cover the scene:
     /// time sampling on where the scene moves during an open shutter, its material) and waits.
     pub fn render_frame_with(
-        &mut self,
+        &self,
         scene: &FrameScene,
         env: &GpuEnvironment,
         spec: Specialisation,
     ) -> Result<GpuFrame, GpuTracerError> {
-        self.pipeline(spec)?;
-        self.submit_with(scene, env, spec)?.finish()
+        self.submit_with(scene, env, spec, &[scene.samples_per_pixel])?.finish()
     }
 
-    /// Submits `scene` (its cheapest specialisation, compiled beforehand with
-    /// [`Self::pipeline`] or compiled here) without waiting.
-    pub fn submit(&mut self, scene: &FrameScene, env: &GpuEnvironment) -> Result<PendingFrame<'_>, GpuTracerError> {
-        let spec = Specialisation::of(scene);
-        self.pipeline(spec)?;
-        self.submit_with(scene, env, spec)
+    /// Submits `scene` with its cheapest specialisation without waiting.
+    pub fn submit(&self, scene: &FrameScene, env: &GpuEnvironment) -> Result<PendingFrame<'_>, GpuTracerError> {
+        self.submit_with(scene, env, Specialisation::of(scene), &[scene.samples_per_pixel])
     }
 
+    /// Submits `scene` and also reads it out after the first `k` samples per pixel for every
+    /// `k` of `checkpoints` (increasing, each below `scene.samples_per_pixel`): the frame at
+    /// several sample counts from one stream ([`GpuFrame::prefixes`]).
+    pub fn submit_nested(
+        &self,
+        scene: &FrameScene,
+        env: &GpuEnvironment,
+        checkpoints: &[u32],
+    ) -> Result<PendingFrame<'_>, GpuTracerError> {
+        let spp = scene.samples_per_pixel;
+        let mut all: Vec<u32> = checkpoints.iter().copied().filter(|&k| k > 0 && k < spp).collect();
+        all.sort_unstable();
+        all.dedup();
+        all.push(spp);
+        self.submit_with(scene, env, Specialisation::of(scene), &all)
+    }
+
+    /// `checkpoints`: increasing sample counts, the last `scene.samples_per_pixel`.
     fn submit_with(
         &self,
         scene: &FrameScene,
         env: &GpuEnvironment,
         spec: Specialisation,
+        checkpoints: &[u32],
     ) -> Result<PendingFrame<'_>, GpuTracerError> {
         let device = &self.ctx.device;
-        let pipeline = &self.pipelines[&spec];
+        let pipeline = self.pipeline(spec)?;
         let submitted = Instant::now();
-        let spp = scene.samples_per_pixel;
+        debug_assert_eq!(checkpoints.last(), Some(&scene.samples_per_pixel));
         let limits = &self.ctx.info.limits;
         let mut eyes = Vec::with_capacity(scene.views.len());
-        let mut camera_samples = 0u64;
         let mut dispatches = 0u32;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         for view in &scene.views {
@@ -277,39 +314,61 @@ impl GpuTracer {
                 usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            let staging = device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("accumulator readback"),
-                size: accum_bytes,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let per_batch = (SAMPLES_PER_DISPATCH / pixels).clamp(1, u64::from(u32::MAX)) as u32;
-            let batches: Vec<Batch> = (0..spp.div_ceil(per_batch))
-                .map(|b| {
-                    let first = b * per_batch;
-                    Batch { first_sample: first, count: per_batch.min(spp - first), pad: [0; 2] }
+            let staging: Vec<wgpu::Buffer> = checkpoints
+                .iter()
+                .map(|_| {
+                    device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("accumulator readback"),
+                        size: accum_bytes,
+                        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    })
                 })
                 .collect();
+            // Batches of at most `per_batch` samples, split at every checkpoint; `ends[j]` is
+            // the batch that completes checkpoint j.
+            let per_batch = (SAMPLES_PER_DISPATCH / pixels).clamp(1, u64::from(u32::MAX)) as u32;
+            let mut batches = Vec::new();
+            let mut ends = Vec::new();
+            let mut first = 0u32;
+            for &checkpoint in checkpoints {
+                while first < checkpoint {
+                    let count = per_batch.min(checkpoint - first);
+                    batches.push(Batch { first_sample: first, count, pad: [0; 2] });
+                    first += count;
+                }
+                ends.push(batches.len().checked_sub(1));
+            }
+            let stamps = 1 + checkpoints.len() as u32;
             let queries = (self.timestamps && !batches.is_empty()).then(|| {
                 let set = device.create_query_set(&wgpu::QuerySetDescriptor {
                     label: Some("tracer timestamps"),
                     ty: wgpu::QueryType::Timestamp,
-                    count: 2,
+                    count: stamps,
                 });
+                let bytes = 8 * u64::from(stamps);
                 let resolve = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("timestamp resolve"),
-                    size: 16,
+                    size: bytes,
                     usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                     mapped_at_creation: false,
                 });
                 let read = device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("timestamp readback"),
-                    size: 16,
+                    size: bytes,
                     usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 });
-                (set, resolve, read)
+                (set, resolve, read, bytes)
             });
+            // Checkpoints with no samples of their own (only a 0-sample frame) are copied first.
+            let mut encoder = device.create_command_encoder(&Default::default());
+            for (j, end) in ends.iter().enumerate() {
+                if end.is_none() {
+                    encoder.copy_buffer_to_buffer(&accum, 0, &staging[j], 0, accum_bytes);
+                }
+            }
+            self.ctx.queue.submit([encoder.finish()]);
             let last = batches.len().saturating_sub(1);
             for (i, batch) in batches.iter().enumerate() {
                 let batch_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -329,43 +388,39 @@ impl GpuTracer {
                 });
                 let mut encoder =
                     device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("batch") });
+                let completes = ends.iter().position(|e| *e == Some(i));
                 {
-                    let timestamp_writes = queries.as_ref().map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
+                    let timestamp_writes = queries.as_ref().map(|(set, ..)| wgpu::ComputePassTimestampWrites {
                         query_set: set,
                         beginning_of_pass_write_index: (i == 0).then_some(0),
-                        end_of_pass_write_index: (i == last).then_some(1),
+                        end_of_pass_write_index: completes.map(|j| 1 + j as u32),
                     });
                     let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                         label: Some("trace_batch"),
                         timestamp_writes,
                     });
-                    pass.set_pipeline(pipeline);
+                    pass.set_pipeline(&pipeline);
                     pass.set_bind_group(0, &bind, &[]);
                     pass.dispatch_workgroups(groups.0, groups.1, 1);
                 }
-                if i == last {
-                    encoder.copy_buffer_to_buffer(&accum, 0, &staging, 0, accum_bytes);
-                    if let Some((set, resolve, read)) = &queries {
-                        encoder.resolve_query_set(set, 0..2, resolve, 0);
-                        encoder.copy_buffer_to_buffer(resolve, 0, read, 0, 16);
-                    }
+                if let Some(j) = completes {
+                    encoder.copy_buffer_to_buffer(&accum, 0, &staging[j], 0, accum_bytes);
+                }
+                if i == last
+                    && let Some((set, resolve, read, bytes)) = &queries
+                {
+                    encoder.resolve_query_set(set, 0..stamps, resolve, 0);
+                    encoder.copy_buffer_to_buffer(resolve, 0, read, 0, *bytes);
                 }
                 self.ctx.queue.submit([encoder.finish()]);
                 dispatches += 1;
             }
-            if batches.is_empty() {
-                // No samples: the zero accumulator is the image.
-                let mut encoder = device.create_command_encoder(&Default::default());
-                encoder.copy_buffer_to_buffer(&accum, 0, &staging, 0, accum_bytes);
-                self.ctx.queue.submit([encoder.finish()]);
-            }
-            camera_samples += pixels * u64::from(spp);
-            eyes.push(PendingEye { width: w, height: h, staging, timestamps: queries.map(|(_, _, read)| read) });
+            eyes.push(PendingEye { width: w, height: h, staging, timestamps: queries.map(|(_, _, read, _)| read) });
         }
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Validation { what: "tracer dispatch".into(), message: e.to_string() }.into());
         }
-        Ok(PendingFrame { tracer: self, eyes, camera_samples, dispatches, submitted })
+        Ok(PendingFrame { tracer: self, eyes, checkpoints: checkpoints.to_vec(), dispatches, submitted })
     }
 }
 
@@ -398,34 +453,62 @@ impl PendingFrame<'_> {
     /// Waits for the frame and reads it back.
     pub fn finish(self) -> Result<GpuFrame, GpuTracerError> {
         let ctx = &self.tracer.ctx;
-        let mut out = Vec::with_capacity(self.eyes.len());
-        let mut nonfinite = 0u64;
-        let mut gpu_seconds = if self.tracer.timestamps { Some(0.0) } else { None };
+        let spp = *self.checkpoints.last().unwrap_or(&0);
+        let n = self.checkpoints.len();
+        let mut levels: Vec<GpuPrefix> = self
+            .checkpoints
+            .iter()
+            .map(|&k| GpuPrefix {
+                samples_per_pixel: k,
+                eyes: Vec::with_capacity(self.eyes.len()),
+                nonfinite_samples: 0,
+                camera_samples: 0,
+                gpu_seconds: self.tracer.timestamps.then_some(0.0),
+            })
+            .collect();
         let period_ns = f64::from(ctx.queue.get_timestamp_period());
         for eye in &self.eyes {
-            let bytes = map_read(ctx, &eye.staging, "the tracer's accumulator")?;
-            let accum: &[Accum] = bytemuck::cast_slice(&bytes);
-            let mut img = LinearImage::new(eye.width, eye.height);
-            for (dst, a) in img.pixels.iter_mut().zip(accum) {
-                *dst = a.sum;
-                nonfinite += u64::from(a.nonfinite);
-            }
-            out.push(img);
-            match (&eye.timestamps, gpu_seconds.as_mut()) {
-                (Some(read), Some(total)) => {
-                    let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&map_read(ctx, read, "timestamps")?);
-                    *total += ticks[1].wrapping_sub(ticks[0]) as f64 * period_ns * 1e-9;
+            let pixels = u64::from(eye.width) * u64::from(eye.height);
+            let ticks: Option<Vec<u64>> = match &eye.timestamps {
+                Some(read) => Some(bytemuck::pod_collect_to_vec(&map_read(ctx, read, "timestamps")?)),
+                None => None,
+            };
+            for (j, level) in levels.iter_mut().enumerate() {
+                let bytes = map_read(ctx, &eye.staging[j], "the tracer's accumulator")?;
+                let accum: &[Accum] = bytemuck::cast_slice(&bytes);
+                // The kernel adds samples divided by the full count: a prefix is rescaled.
+                let scale = if level.samples_per_pixel > 0 { spp as f32 / level.samples_per_pixel as f32 } else { 0.0 };
+                let mut img = LinearImage::new(eye.width, eye.height);
+                for (dst, a) in img.pixels.iter_mut().zip(accum) {
+                    *dst = if j + 1 == n { a.sum } else { a.sum.map(|c| c * scale) };
+                    level.nonfinite_samples += u64::from(a.nonfinite);
                 }
-                _ => gpu_seconds = None,
+                level.eyes.push(img);
+                level.camera_samples += pixels * u64::from(level.samples_per_pixel);
+                level.gpu_seconds = match (level.gpu_seconds, &ticks) {
+                    (Some(total), Some(t)) if level.samples_per_pixel > 0 => {
+                        Some(total + t[1 + j].wrapping_sub(t[0]) as f64 * period_ns * 1e-9)
+                    }
+                    (Some(total), _) if level.samples_per_pixel == 0 => Some(total),
+                    _ => None,
+                };
             }
         }
+        let full = levels.pop().unwrap_or(GpuPrefix {
+            samples_per_pixel: 0,
+            eyes: Vec::new(),
+            nonfinite_samples: 0,
+            camera_samples: 0,
+            gpu_seconds: None,
+        });
         Ok(GpuFrame {
-            eyes: out,
-            nonfinite_samples: nonfinite,
-            camera_samples: self.camera_samples,
-            gpu_seconds,
+            eyes: full.eyes,
+            nonfinite_samples: full.nonfinite_samples,
+            camera_samples: full.camera_samples,
+            gpu_seconds: full.gpu_seconds,
             wall_seconds: self.submitted.elapsed().as_secs_f64(),
             dispatches: self.dispatches,
+            prefixes: levels,
         })
     }
 }

@@ -14,7 +14,7 @@ pub mod device;
 pub mod params;
 pub mod sampler32;
 
-pub use device::{GpuEnvironment, GpuFrame, GpuTracer, GpuTracerError, PendingFrame};
+pub use device::{GpuEnvironment, GpuFrame, GpuPrefix, GpuTracer, GpuTracerError, PendingFrame};
 pub use params::Specialisation;
 
 use ::gpu::WgslAssembler;
