@@ -116,6 +116,8 @@ fn write_set(dir: &Path, stimuli: &[StimulusId]) {
             samples_per_pixel: spp,
             master_seed: 1,
             device: "test".into(),
+            gpu: None,
+            sampling: study::manifest::Sampling::Independent,
             software_version: "0".into(),
             design_sha256: "d".into(),
             frames: (0..2)
@@ -129,6 +131,7 @@ fn write_set(dir: &Path, stimuli: &[StimulusId]) {
                     cpu_seconds: f64::from(spp) / 50.0,
                     nonfinite_samples: 0,
                     seeds: vec![1],
+                    gpu_seconds: None,
                 })
                 .collect(),
         };
@@ -141,6 +144,7 @@ fn write_set(dir: &Path, stimuli: &[StimulusId]) {
         design: "test".into(),
         design_sha256: "d".into(),
         preset: "quick".into(),
+        sampling: study::manifest::Sampling::Independent,
         sequences: entries,
     };
     std::fs::write(dir.join("index.json"), serde_json::to_string_pretty(&index).unwrap()).unwrap();

@@ -15,6 +15,9 @@ pub enum RenderError {
     /// The method is part of the study's design model but its renderer has not landed.
     #[error("rendering method `{0}` is not available in this build yet; use `tracer`")]
     NotAvailable(Method),
+    /// The GPU failed while rendering (device lost, out of memory, a limit).
+    #[error("{0}")]
+    Gpu(String),
 }
 
 /// A rendered frame.
@@ -26,6 +29,8 @@ pub struct RenderedFrame {
     pub nonfinite_samples: u64,
     /// Camera samples traced (0 for methods that trace none).
     pub camera_samples: u64,
+    /// GPU seconds from timestamp queries, for frames rendered on a GPU that has them.
+    pub gpu_seconds: Option<f64>,
 }
 
 /// Whether this build renders with `method`.
@@ -42,6 +47,7 @@ pub fn render_frame(method: Method, scene: &FrameScene, env: &EnvironmentMap) ->
                 image: compose_eyes(output.eyes),
                 nonfinite_samples: output.nonfinite_samples,
                 camera_samples: output.camera_samples,
+                gpu_seconds: None,
             })
         }
         other => Err(RenderError::NotAvailable(other)),

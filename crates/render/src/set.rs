@@ -20,9 +20,13 @@ use study::manifest::{
 };
 use study::{Method, SOFTWARE_VERSION, StimulusId};
 
+use study::manifest::Sampling;
+use study::scene::FrameScene;
+
+use crate::device::{DeviceChoice, DeviceError, Renderer, Submitted};
 use crate::env::{EnvError, EnvironmentMap};
-use crate::io::{IoError, encode_exr, encode_png_srgb};
-use crate::method::{RenderError, render_frame};
+use crate::io::{IoError, LinearImage, encode_exr, encode_png_srgb};
+use crate::method::RenderError;
 
 /// Why a set could not be rendered.
 #[derive(Debug, thiserror::Error)]
@@ -51,9 +55,12 @@ pub enum SetError {
         /// Cause.
         source: IoError,
     },
-    /// The method cannot render here.
+    /// The method cannot render here, or the GPU failed.
     #[error(transparent)]
     Method(#[from] RenderError),
+    /// The requested device cannot be opened.
+    #[error(transparent)]
+    Device(#[from] DeviceError),
     /// The output folder holds a set that this request must not mix with.
     #[error("{}: {message}", path.display())]
     Mismatch {
@@ -68,7 +75,14 @@ impl SetError {
     /// Whether the error comes from the user's input (design, environment map, output
     /// folder holding another set) rather than from writing.
     pub fn is_bad_input(&self) -> bool {
-        matches!(self, SetError::Design(_) | SetError::Environment(_) | SetError::Method(_) | SetError::Mismatch { .. })
+        matches!(
+            self,
+            SetError::Design(_)
+                | SetError::Environment(_)
+                | SetError::Method(RenderError::NotAvailable(_))
+                | SetError::Device(DeviceError::NoGpu(_))
+                | SetError::Mismatch { .. }
+        )
     }
 }
 
@@ -116,6 +130,10 @@ pub struct SetRequest<'a> {
     pub exr: bool,
     /// Progress display.
     pub progress: ProgressMode,
+    /// Where to render (`--device`).
+    pub device: DeviceChoice,
+    /// Independent sample levels (the study's way) or nested ones (`--nested`).
+    pub sampling: Sampling,
 }
 
 /// What a run did.
@@ -129,16 +147,13 @@ pub struct SetReport {
     pub nonfinite_samples: u64,
     /// Wall seconds of this run.
     pub wall_seconds: f64,
+    /// The device that rendered, as manifests name it.
+    pub device: String,
 }
 
 /// The file name of frame `index`.
 pub fn frame_name(index: u32, extension: &str) -> String {
     format!("frame-{index:04}.{extension}")
-}
-
-/// A description of the machine for manifests.
-pub fn device_name() -> String {
-    format!("cpu: {} threads", rayon::current_num_threads())
 }
 
 /// CPU seconds used by this process so far (user + system, all threads), from
@@ -258,48 +273,62 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
     let out = &request.out;
     std::fs::create_dir_all(out).map_err(io_err(out, "cannot create the output folder"))?;
     let index_path = out.join("index.json");
-    let mut index = load_index(&index_path, design, preset)?;
+    let mut index = load_index(&index_path, design, preset, request.sampling)?;
     // Writing the index first finds an unwritable folder before any rendering.
     write_index(writer, &index_path, &mut index)?;
     let env = EnvironmentMap::from_lighting(&design.lighting)?;
+    let renderer = Renderer::open(request.device, &env)?;
 
     let total_cost: u64 = request.ids.iter().map(|id| frame_cost(preset, id) * u64::from(preset.frames)).sum();
     let progress = Progress::new(request.progress, total_cost, request.ids.len());
-    let mut report = SetReport::default();
+    let mut report = SetReport { device: renderer.device_name(), ..SetReport::default() };
+    let mut done = 0;
     let result = (|| {
-        for (n, id) in request.ids.iter().enumerate() {
-            let seq_started = Instant::now();
-            let folder = out.join(id.to_string());
-            let manifest_path = folder.join("manifest.json");
-            if request.resume
-                && let Some(manifest_sha) = verify_sequence(&folder, design, preset, id, request.method, request.exr)
-            {
-                upsert(&mut index, id, &manifest_sha);
-                write_index(writer, &index_path, &mut index)?;
-                progress.advance(frame_cost(preset, id) * u64::from(preset.frames));
-                report.skipped.push(*id);
-                progress.finished(n + 1, id, "verified, skipped", seq_started.elapsed().as_secs_f64());
+        for group in streams(&request.ids, request.sampling) {
+            let group_started = Instant::now();
+            let mut todo = Vec::new();
+            for id in group {
+                let folder = out.join(id.to_string());
+                if request.resume
+                    && let Some(manifest_sha) =
+                        verify_sequence(&folder, design, preset, &id, request.method, request.exr, request.sampling)
+                {
+                    upsert(&mut index, &id, &manifest_sha);
+                    write_index(writer, &index_path, &mut index)?;
+                    progress.advance(frame_cost(preset, &id) * u64::from(preset.frames));
+                    report.skipped.push(id);
+                    done += 1;
+                    progress.finished(done, &id, "verified, skipped", 0.0);
+                } else {
+                    todo.push(id);
+                }
+            }
+            if todo.is_empty() {
                 continue;
             }
-            // Un-mark the sequence before touching its files.
-            if index.sequences.iter().any(|e| e.id == *id) {
-                index.sequences.retain(|e| e.id != *id);
-                write_index(writer, &index_path, &mut index)?;
-            }
-            match std::fs::remove_file(&manifest_path) {
-                Err(e) if e.kind() != io::ErrorKind::NotFound => {
-                    return Err(SetError::Io {
-                        path: manifest_path,
-                        action: "cannot remove the old manifest",
-                        source: e,
-                    });
+            for id in &todo {
+                let folder = out.join(id.to_string());
+                let manifest_path = folder.join("manifest.json");
+                // Un-mark the sequence before touching its files.
+                if index.sequences.iter().any(|e| e.id == *id) {
+                    index.sequences.retain(|e| e.id != *id);
+                    write_index(writer, &index_path, &mut index)?;
                 }
-                _ => {}
+                match std::fs::remove_file(&manifest_path) {
+                    Err(e) if e.kind() != io::ErrorKind::NotFound => {
+                        return Err(SetError::Io {
+                            path: manifest_path,
+                            action: "cannot remove the old manifest",
+                            source: e,
+                        });
+                    }
+                    _ => {}
+                }
+                std::fs::create_dir_all(&folder).map_err(io_err(&folder, "cannot create the sequence folder"))?;
+                remove_temporaries(&folder);
             }
-            std::fs::create_dir_all(&folder).map_err(io_err(&folder, "cannot create the sequence folder"))?;
-            remove_temporaries(&folder);
-            let bar = progress.sequence_bar(id, preset.frames);
-            let manifest = render_sequence(request, id, &folder, &env, writer, |cost| {
+            let bar = progress.sequence_bar(&todo[todo.len() - 1], preset.frames);
+            let manifests = render_stream(request, &renderer, &todo, writer, |cost| {
                 progress.advance(cost);
                 if let Some(b) = &bar {
                     b.inc(1);
@@ -308,13 +337,17 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
             if let Some(b) = bar {
                 b.finish_and_clear();
             }
-            let bytes = manifest_bytes(&manifest);
-            writer.write(&manifest_path, &bytes).map_err(io_err(&manifest_path, "cannot write"))?;
-            upsert(&mut index, id, &sha256_hex(&bytes));
-            write_index(writer, &index_path, &mut index)?;
-            report.nonfinite_samples += manifest.nonfinite_samples();
-            report.rendered.push(*id);
-            progress.finished(n + 1, id, "rendered", seq_started.elapsed().as_secs_f64());
+            for (id, manifest) in todo.iter().zip(manifests) {
+                let manifest_path = out.join(id.to_string()).join("manifest.json");
+                let bytes = manifest_bytes(&manifest);
+                writer.write(&manifest_path, &bytes).map_err(io_err(&manifest_path, "cannot write"))?;
+                upsert(&mut index, id, &sha256_hex(&bytes));
+                write_index(writer, &index_path, &mut index)?;
+                report.nonfinite_samples += manifest.nonfinite_samples();
+                report.rendered.push(*id);
+                done += 1;
+                progress.finished(done, id, "rendered", group_started.elapsed().as_secs_f64());
+            }
         }
         Ok(())
     })();
@@ -324,72 +357,202 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
     Ok(report)
 }
 
-fn render_sequence(
-    request: &SetRequest<'_>,
-    id: &StimulusId,
+/// The sequences rendered together: each on its own, or (nested sampling) the sample levels
+/// of one material, speed, shutter and view, in the order they were asked for.
+fn streams(ids: &[StimulusId], sampling: Sampling) -> Vec<Vec<StimulusId>> {
+    let mut groups: Vec<Vec<StimulusId>> = Vec::new();
+    for id in ids {
+        let same_stream = |g: &Vec<StimulusId>| StimulusId { samples: id.samples, ..g[0] } == *id;
+        match groups.iter_mut().find(|g| sampling == Sampling::Nested && same_stream(g)) {
+            Some(g) => g.push(*id),
+            None => groups.push(vec![*id]),
+        }
+    }
+    groups
+}
+
+/// Frames submitted to the GPU ahead of the one being read back.
+const FRAMES_IN_FLIGHT: usize = 2;
+/// Encoded frames waiting to be written at most, before the renderer waits for them.
+const ENCODES_QUEUED: usize = 16;
+
+/// A frame of one member of a stream, encoded and written.
+type Written = Result<(usize, FrameRecord), SetError>;
+
+/// Encodes and writes one frame image of sequence `folder`; the record of it.
+fn write_frame(
+    writer: &dyn FileWriter,
     folder: &Path,
-    env: &EnvironmentMap,
+    frame: u32,
+    image: &LinearImage,
+    exposure: &study::scene::Exposure,
+    exr: bool,
+) -> Result<FrameRecord, SetError> {
+    let png_name = frame_name(frame, "png");
+    let png_path = folder.join(&png_name);
+    let png = encode_png_srgb(image, exposure);
+    writer.write(&png_path, &png).map_err(io_err(&png_path, "cannot write"))?;
+    let (exr_name, exr_sha256) = if exr {
+        let name = frame_name(frame, "exr");
+        let path = folder.join(&name);
+        let bytes = encode_exr(image).map_err(|source| SetError::Encode { path: path.clone(), source })?;
+        writer.write(&path, &bytes).map_err(io_err(&path, "cannot write"))?;
+        (Some(name), Some(sha256_hex(&bytes)))
+    } else {
+        (None, None)
+    };
+    Ok(FrameRecord {
+        index: frame,
+        png: png_name,
+        png_sha256: sha256_hex(&png),
+        exr: exr_name,
+        exr_sha256,
+        wall_seconds: 0.0,
+        cpu_seconds: 0.0,
+        nonfinite_samples: 0,
+        seeds: Vec::new(),
+        gpu_seconds: None,
+    })
+}
+
+/// Renders the sequences `members` (one, or the sample levels of one nested stream) frame
+/// by frame and writes their frames; returns their manifests, in order. On a GPU the next
+/// frames are submitted before a frame is read back, and frames are encoded and written on
+/// the thread pool, so the GPU does not wait for the CPU.
+fn render_stream(
+    request: &SetRequest<'_>,
+    renderer: &Renderer<'_>,
+    members: &[StimulusId],
     writer: &dyn FileWriter,
     mut on_frame: impl FnMut(u64),
-) -> Result<SequenceManifest, SetError> {
+) -> Result<Vec<SequenceManifest>, SetError> {
     let (design, preset, exr) = (request.design, &request.preset, request.exr);
-    let mut frames = Vec::with_capacity(preset.frames as usize);
+    let spp_of = |id: &StimulusId| preset.samples_per_pixel[usize::from(id.samples - 1)];
+    let spps: Vec<u32> = members.iter().map(spp_of).collect();
+    let stream_spp = spps.iter().copied().max().unwrap_or(0);
+    // A nested stream is seeded as the design's highest sample level, whichever levels
+    // are rendered, so a level's frames do not depend on the selection.
+    let stream_id = match request.sampling {
+        Sampling::Nested => {
+            let top = (0..preset.samples_per_pixel.len()).max_by_key(|&i| preset.samples_per_pixel[i]).unwrap_or(0);
+            StimulusId { samples: top as u8 + 1, ..members[0] }
+        }
+        Sampling::Independent => members[0],
+    };
+    let mut levels = spps.clone();
+    levels.sort_unstable();
+    levels.dedup();
+    let folders: Vec<PathBuf> = members.iter().map(|id| request.out.join(id.to_string())).collect();
+    let cost: u64 = members.iter().map(|id| frame_cost(preset, id)).sum();
+    let written: std::sync::Mutex<Vec<Written>> = std::sync::Mutex::new(Vec::new());
+    let queued = std::sync::atomic::AtomicUsize::new(0);
     let mut size = (0, 0);
-    for frame in 0..preset.frames {
-        let scene = design.frame_scene_with(preset, id, frame)?;
-        let wall0 = Instant::now();
-        let cpu0 = process_cpu_seconds();
-        let rendered = render_frame(request.method, &scene, env)?;
-        let (image, nonfinite) = (rendered.image, rendered.nonfinite_samples);
-        let wall_seconds = wall0.elapsed().as_secs_f64();
-        let cpu_seconds = match (cpu0, process_cpu_seconds()) {
-            (Some(a), Some(b)) => (b - a).max(0.0),
-            _ => 0.0,
-        };
-        size = (image.width, image.height);
-        let png_name = frame_name(frame, "png");
-        let png_path = folder.join(&png_name);
-        let png = encode_png_srgb(&image, &scene.exposure);
-        writer.write(&png_path, &png).map_err(io_err(&png_path, "cannot write"))?;
-        let (exr_name, exr_sha256) = if exr {
-            let name = frame_name(frame, "exr");
-            let path = folder.join(&name);
-            let bytes = encode_exr(&image).map_err(|source| SetError::Encode { path: path.clone(), source })?;
-            writer.write(&path, &bytes).map_err(io_err(&path, "cannot write"))?;
-            (Some(name), Some(sha256_hex(&bytes)))
-        } else {
-            (None, None)
-        };
-        frames.push(FrameRecord {
-            index: frame,
-            png: png_name,
-            png_sha256: sha256_hex(&png),
-            exr: exr_name,
-            exr_sha256,
-            wall_seconds,
-            cpu_seconds,
-            nonfinite_samples: nonfinite,
-            seeds: scene.views.iter().map(|v| v.seed).collect(),
-        });
-        on_frame(frame_cost(preset, id));
+    let mut seeds_of_frame: Vec<Vec<u64>> = Vec::new();
+    let asynchronous = renderer.is_asynchronous();
+    rayon::in_place_scope(|scope| -> Result<(), SetError> {
+        let mut in_flight = std::collections::VecDeque::new();
+        let mut previous_done = Instant::now();
+        let mut complete =
+            |(frame, scene, submitted, started, cpu0): (u32, FrameScene, Submitted<'_>, Instant, Option<f64>),
+             previous_done: &mut Instant|
+             -> Result<(), SetError> {
+                let rendered = submitted.finish()?;
+                let now = Instant::now();
+                // This frame's share of the wall clock: since it was submitted or since the
+                // frame before it finished, whichever was later.
+                let wall = now.duration_since(started.max(*previous_done)).as_secs_f64();
+                *previous_done = now;
+                let cpu = match (cpu0, process_cpu_seconds()) {
+                    (Some(a), Some(b)) => (b - a).max(0.0),
+                    _ => 0.0,
+                };
+                for (m, spp) in spps.iter().enumerate() {
+                    let level = &rendered[levels.iter().position(|l| l == spp).unwrap_or(0)];
+                    size = (level.image.width, level.image.height);
+                    // Cost as if rendered alone: the stream's cost grows linearly with samples.
+                    let share = if stream_spp > 0 { f64::from(*spp) / f64::from(stream_spp) } else { 1.0 };
+                    let extra = (wall * share, cpu * share, level.nonfinite_samples, level.gpu_seconds);
+                    let image = level.image.clone();
+                    let (folder, exposure, written) = (&folders[m], scene.exposure, &written);
+                    let task = move || {
+                        let record = write_frame(writer, folder, frame, &image, &exposure, exr).map(|r| FrameRecord {
+                            wall_seconds: extra.0,
+                            cpu_seconds: extra.1,
+                            nonfinite_samples: extra.2,
+                            gpu_seconds: extra.3,
+                            ..r
+                        });
+                        written.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(record.map(|r| (m, r)));
+                    };
+                    if asynchronous {
+                        queued.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                        let queued = &queued;
+                        scope.spawn(move |_| {
+                            task();
+                            queued.fetch_sub(1, std::sync::atomic::Ordering::SeqCst);
+                        });
+                    } else {
+                        task();
+                    }
+                }
+                while queued.load(std::sync::atomic::Ordering::SeqCst) > ENCODES_QUEUED {
+                    rayon::yield_now();
+                }
+                on_frame(cost);
+                Ok(())
+            };
+        for frame in 0..preset.frames {
+            let mut scene = design.frame_scene_with(preset, &stream_id, frame)?;
+            scene.samples_per_pixel = stream_spp;
+            seeds_of_frame.push(scene.views.iter().map(|v| v.seed).collect());
+            let (started, cpu0) = (Instant::now(), process_cpu_seconds());
+            let submitted = renderer.submit(request.method, &scene, &levels)?;
+            in_flight.push_back((frame, scene, submitted, started, cpu0));
+            while in_flight.len() > if asynchronous { FRAMES_IN_FLIGHT } else { 0 } {
+                if let Some(next) = in_flight.pop_front() {
+                    complete(next, &mut previous_done)?;
+                }
+            }
+        }
+        while let Some(next) = in_flight.pop_front() {
+            complete(next, &mut previous_done)?;
+        }
+        Ok(())
+    })?;
+    let mut frames: Vec<Vec<FrameRecord>> = members.iter().map(|_| Vec::new()).collect();
+    for w in written.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner) {
+        let (m, record) = w?;
+        frames[m].push(record);
     }
-    Ok(SequenceManifest {
-        format: SEQUENCE_FORMAT.to_owned(),
-        id: *id,
-        view: id.view,
-        factors: design.factors(id, preset)?,
-        method: request.method,
-        preset: preset.name.clone(),
-        width: size.0,
-        height: size.1,
-        fps: design.spec.sequence.fps,
-        samples_per_pixel: preset.samples_per_pixel[usize::from(id.samples - 1)],
-        master_seed: design.spec.master_seed,
-        device: device_name(),
-        software_version: SOFTWARE_VERSION.to_owned(),
-        design_sha256: design.sha256.clone(),
-        frames,
-    })
+    members
+        .iter()
+        .zip(frames)
+        .map(|(id, mut records)| {
+            records.sort_by_key(|r| r.index);
+            for r in &mut records {
+                r.seeds = seeds_of_frame[r.index as usize].clone();
+            }
+            Ok(SequenceManifest {
+                format: SEQUENCE_FORMAT.to_owned(),
+                id: *id,
+                view: id.view,
+                factors: design.factors(id, preset)?,
+                method: request.method,
+                preset: preset.name.clone(),
+                width: size.0,
+                height: size.1,
+                fps: design.spec.sequence.fps,
+                samples_per_pixel: spp_of(id),
+                master_seed: design.spec.master_seed,
+                device: renderer.device_name(),
+                gpu: renderer.gpu_record(),
+                sampling: request.sampling,
+                software_version: SOFTWARE_VERSION.to_owned(),
+                design_sha256: design.sha256.clone(),
+                frames: records,
+            })
+        })
+        .collect()
 }
 
 fn manifest_bytes(manifest: &SequenceManifest) -> Vec<u8> {
@@ -426,12 +589,13 @@ fn write_index(writer: &dyn FileWriter, path: &Path, index: &mut SetIndex) -> Re
 /// The index to continue from: the existing one (when it belongs to this design and preset)
 /// keeping only entries whose manifest still hashes as recorded and was rendered from this
 /// design file; a new empty one otherwise.
-fn load_index(path: &Path, design: &Design, preset: &Preset) -> Result<SetIndex, SetError> {
+fn load_index(path: &Path, design: &Design, preset: &Preset, sampling: Sampling) -> Result<SetIndex, SetError> {
     let fresh = SetIndex {
         format: INDEX_FORMAT.to_owned(),
         design: design.name().to_owned(),
         design_sha256: design.sha256.clone(),
         preset: preset.name.clone(),
+        sampling,
         sequences: Vec::new(),
     };
     if !path.exists() {
@@ -458,6 +622,17 @@ fn load_index(path: &Path, design: &Design, preset: &Preset) -> Result<SetIndex,
             ),
         });
     }
+    if old.sampling != sampling && !old.sequences.is_empty() {
+        let flag = |s: Sampling| if s == Sampling::Nested { "with --nested" } else { "without --nested" };
+        return Err(SetError::Mismatch {
+            path: path.to_owned(),
+            message: format!(
+                "this folder holds a set rendered {}, and this run is {}; one set has one sampling mode: render into another folder",
+                flag(old.sampling),
+                flag(sampling)
+            ),
+        });
+    }
     let root = path.parent().unwrap_or(Path::new("."));
     let sequences = old
         .sequences
@@ -480,6 +655,7 @@ pub fn verify_sequence(
     id: &StimulusId,
     method: Method,
     exr: bool,
+    sampling: Sampling,
 ) -> Option<String> {
     let manifest_path = folder.join("manifest.json");
     let bytes = std::fs::read(&manifest_path).ok()?;
@@ -488,6 +664,7 @@ pub fn verify_sequence(
     let eyes = study::Eye::of_view(id.view).len() as u32;
     let matches = m.id == *id
         && m.method == method
+        && m.sampling == sampling
         && m.preset == preset.name
         && m.design_sha256 == design.sha256
         && m.samples_per_pixel == spp
@@ -553,6 +730,8 @@ mod tests {
             resume: false,
             exr: true,
             progress: ProgressMode::Quiet,
+            device: DeviceChoice::Cpu,
+            sampling: Sampling::Independent,
         }
     }
 
@@ -578,7 +757,8 @@ mod tests {
                 &req.preset,
                 &index.sequences[0].id,
                 Method::Tracer,
-                true
+                true,
+                Sampling::Independent
             )
             .is_some()
         );
@@ -589,7 +769,8 @@ mod tests {
                 &req.preset,
                 &"M1-S1-T1-A2".parse().unwrap(),
                 Method::Tracer,
-                true
+                true,
+                Sampling::Independent
             )
             .is_none()
         );

@@ -462,3 +462,19 @@ fn hard_cases_stay_finite() {
         assert!(out.eyes[0].pixels.iter().all(|p| p.iter().all(|c| c.is_finite())));
     }
 }
+
+#[test]
+fn nested_levels_are_each_sample_count_rendered_alone() {
+    let mut s = noise_close_up(24, 16, 12);
+    s.sphere.velocity = DVec3::new(1.5, 0.0, 0.0);
+    s.shutter = Shutter { open: 0.0, close: 1.0 / 30.0 };
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let levels = render::tracer::render_frame_nested(&s, &env, &[5, 1, 5, 40, 0]);
+    let counts: Vec<u64> = levels.iter().map(|l| l.camera_samples).collect();
+    assert_eq!(counts, [24 * 16, 24 * 16 * 5, 24 * 16 * 12]);
+    for (level, spp) in levels.iter().zip([1, 5, 12]) {
+        let mut alone = s.clone();
+        alone.samples_per_pixel = spp;
+        assert_eq!(level.eyes, render_frame(&alone, &env).eyes, "{spp} spp");
+    }
+}

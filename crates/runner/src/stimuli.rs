@@ -364,6 +364,7 @@ pub fn write_synthetic_set(
                 cpu_seconds: 0.02 * f64::from(id.samples),
                 nonfinite_samples: 0,
                 seeds: vec![u64::from(f)],
+                gpu_seconds: None,
             });
         }
         let level = |label: String, value: f64| LevelInfo { name: label.clone(), label, value };
@@ -385,6 +386,8 @@ pub fn write_synthetic_set(
             samples_per_pixel: u32::from(id.samples),
             master_seed: 0,
             device: "synthetic".into(),
+            gpu: None,
+            sampling: study::manifest::Sampling::Independent,
             software_version: study::SOFTWARE_VERSION.into(),
             design_sha256: String::new(),
             frames: records,
@@ -403,6 +406,7 @@ pub fn write_synthetic_set(
         design: "synthetic".into(),
         design_sha256: String::new(),
         preset: "test".into(),
+        sampling: study::manifest::Sampling::Independent,
         sequences: entries,
     };
     let path = dir.join("index.json");

@@ -60,8 +60,40 @@ pub struct FrameRecord {
     pub cpu_seconds: f64,
     /// Radiance samples that were NaN or infinite and were discarded.
     pub nonfinite_samples: u64,
-    /// Per-eye sample seeds, left to right.
+    /// Per-eye sample seeds, left to right (with nested sampling: the seeds of the stream
+    /// the frame is a prefix of).
     pub seeds: Vec<u64>,
+    /// GPU seconds of this frame's dispatches (timestamp queries), on a GPU that has them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu_seconds: Option<f64>,
+}
+
+/// How the sample levels of a set were rendered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Sampling {
+    /// Each sequence rendered on its own, with its own seeds (the study's way, as in the
+    /// thesis).
+    #[default]
+    Independent,
+    /// The sample levels of one material, speed, shutter and view are prefixes of one
+    /// sample stream, seeded as the design's highest level, rendered once (`--nested`).
+    Nested,
+}
+
+/// The GPU adapter that rendered a sequence.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GpuRecord {
+    /// Adapter name.
+    pub adapter: String,
+    /// Backend (Vulkan, Metal, Dx12, Gl).
+    pub backend: String,
+    /// Driver name.
+    pub driver: String,
+    /// Driver version or description.
+    pub driver_info: String,
+    /// Whether it is a software (CPU) implementation such as lavapipe.
+    pub software: bool,
 }
 
 /// The manifest of one sequence folder.
@@ -89,8 +121,14 @@ pub struct SequenceManifest {
     pub samples_per_pixel: u32,
     /// The design's master seed.
     pub master_seed: u64,
-    /// Where it was rendered, e.g. `cpu: 2 threads` or a GPU adapter name.
+    /// Where it was rendered, e.g. `cpu: 2 threads` or `gpu: NAME (BACKEND)`.
     pub device: String,
+    /// The GPU adapter, for sequences rendered on one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu: Option<GpuRecord>,
+    /// Independent or nested sample levels (absent in older manifests: independent).
+    #[serde(default)]
+    pub sampling: Sampling,
     /// blurlab version that rendered it.
     pub software_version: String,
     /// SHA-256 of the design file.
@@ -138,6 +176,9 @@ pub struct SetIndex {
     pub design_sha256: String,
     /// Preset the set was rendered with.
     pub preset: String,
+    /// Independent or nested sample levels (absent in older indexes: independent).
+    #[serde(default)]
+    pub sampling: Sampling,
     /// The complete sequences, sorted by id.
     pub sequences: Vec<IndexEntry>,
 }

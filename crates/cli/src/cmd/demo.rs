@@ -89,6 +89,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         resume: true,
         exr: false,
         progress: ProgressMode::Lines,
+        device: render::DeviceChoice::Auto,
+        sampling: study::manifest::Sampling::Independent,
     })
     .map_err(|e| if e.is_bad_input() { anyhow::Error::new(BadInput(e.to_string())) } else { anyhow::Error::new(e) })?;
     eprintln!(

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use super::BadInput;
-use super::stimuli::{Frame, FrameArgs};
+use super::stimuli::{DeviceArg, Frame, FrameArgs};
 use anyhow::Context as _;
 use study::Method;
 
@@ -19,6 +19,10 @@ pub struct Args {
     /// Output file: `.exr` for linear radiance, `.png` for the sRGB display image.
     #[arg(long)]
     out: PathBuf,
+    /// Rendering device: `auto` (a hardware GPU, else the CPU), `cpu` or `gpu` (hardware,
+    /// else software such as lavapipe).
+    #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
+    device: DeviceArg,
 }
 
 fn parse_method(text: &str) -> Result<Method, String> {
@@ -39,8 +43,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         _ => return Err(BadInput(format!("--out {}: the file must end in .exr or .png", args.out.display())).into()),
     };
     let env = render::env::EnvironmentMap::from_lighting(&scene.lighting).map_err(|e| BadInput(e.to_string()))?;
+    let renderer = render::Renderer::open(args.device.into(), &env).map_err(|e| match e {
+        render::device::DeviceError::NoGpu(_) => anyhow::Error::new(BadInput(e.to_string())),
+        e => anyhow::Error::new(e),
+    })?;
     let started = std::time::Instant::now();
-    let rendered = render::render_frame(method, &scene, &env).map_err(|e| BadInput(e.to_string()))?;
+    let rendered = renderer.render(method, &scene).map_err(|e| match e {
+        render::RenderError::NotAvailable(_) => anyhow::Error::new(BadInput(e.to_string())),
+        e => anyhow::Error::new(e),
+    })?;
     let (image, nonfinite) = (rendered.image, rendered.nonfinite_samples);
     let seconds = started.elapsed().as_secs_f64();
     let bytes = if exr {
@@ -50,12 +61,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     study::fsio::write_atomic(&args.out, &bytes).with_context(|| format!("{}: cannot write", args.out.display()))?;
     eprintln!(
-        "{}: {id} frame {} with the {method} ({}x{}, {} spp) in {seconds:.2} s, {nonfinite} non-finite samples discarded",
+        "{}: {id} frame {} with the {method} on {} ({}x{}, {} spp) in {seconds:.2} s{}, {nonfinite} non-finite samples discarded",
         args.out.display(),
         args.frame.frame,
+        renderer.device_name(),
         image.width,
         image.height,
-        scene.samples_per_pixel
+        scene.samples_per_pixel,
+        rendered.gpu_seconds.map(|g| format!(" ({g:.3} s on the GPU)")).unwrap_or_default()
     );
     Ok(())
 }

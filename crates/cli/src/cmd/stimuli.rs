@@ -8,6 +8,7 @@ use clap::{Subcommand, ValueEnum};
 use render::set::{ProgressMode, SetError, SetRequest, render_set};
 use study::design::{Design, DesignError, Preset, Views};
 use study::ids::{Factor, StimulusId};
+use study::manifest::Sampling;
 use study::scene::FrameScene;
 use study::select::Selection;
 
@@ -56,12 +57,23 @@ impl From<ViewsArg> for Views {
 /// Rendering device.
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum DeviceArg {
-    /// The best available (the CPU tracer for now).
+    /// A hardware GPU adapter if there is one, else the CPU tracer (never a software
+    /// adapter such as lavapipe, which is slower than the CPU tracer).
     Auto,
     /// The CPU reference tracer.
     Cpu,
-    /// The GPU tracer.
+    /// The GPU tracer: a hardware adapter, else a software one; an error without either.
     Gpu,
+}
+
+impl From<DeviceArg> for render::DeviceChoice {
+    fn from(d: DeviceArg) -> Self {
+        match d {
+            DeviceArg::Auto => render::DeviceChoice::Auto,
+            DeviceArg::Cpu => render::DeviceChoice::Cpu,
+            DeviceArg::Gpu => render::DeviceChoice::Gpu,
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -97,6 +109,11 @@ struct RenderArgs {
     /// Rendering device.
     #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
     device: DeviceArg,
+    /// Render the sample levels of each material, speed, shutter and view once, as prefixes
+    /// of one sample stream seeded as the highest level (faster; off by default: the study
+    /// renders every level independently). The manifests and index record the mode.
+    #[arg(long)]
+    nested: bool,
     /// Render only shard K of N (1-based, `K/N`): every N-th selected sequence from the K-th.
     #[arg(long)]
     shard: Option<String>,
@@ -236,9 +253,6 @@ fn parse_shard(text: &str) -> anyhow::Result<(usize, usize)> {
 }
 
 fn render(a: RenderArgs) -> anyhow::Result<()> {
-    if matches!(a.device, DeviceArg::Gpu) {
-        return Err(BadInput("--device gpu: the GPU tracer is not built yet; use --device cpu".into()).into());
-    }
     let design = load_design(&a.select.design)?;
     let preset = design.preset(&a.select.preset).map_err(design_error)?;
     let mut ids = selected(&design, &a.select)?;
@@ -259,12 +273,15 @@ fn render(a: RenderArgs) -> anyhow::Result<()> {
             ProgressArg::Lines => ProgressMode::Lines,
             ProgressArg::Quiet => ProgressMode::Quiet,
         },
+        device: a.device.into(),
+        sampling: if a.nested { Sampling::Nested } else { Sampling::Independent },
     };
     let report = render_set(&request).map_err(set_error)?;
     eprintln!(
-        "{}: {} sequences rendered, {} verified and skipped, {} non-finite samples discarded, {:.1} s",
+        "{}: {} sequences rendered on {}, {} verified and skipped, {} non-finite samples discarded, {:.1} s",
         a.out.display(),
         report.rendered.len(),
+        report.device,
         report.skipped.len(),
         report.nonfinite_samples,
         report.wall_seconds

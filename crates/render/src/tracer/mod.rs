@@ -77,9 +77,22 @@ impl FrameSetup {
 
 const TILE: u32 = 16;
 
+/// One tile's pixels (row-major within the tile) and discarded samples.
+type TileLevel = (Vec<[f32; 3]>, u64);
+
 /// Renders every view of a frame. Deterministic: the same scene and map give the same
 /// pixels, whatever the number of threads.
 pub fn render_frame(scene: &FrameScene, env: &EnvironmentMap) -> FrameOutput {
+    let mut levels = render_frame_nested(scene, env, &[]);
+    levels.pop().unwrap_or(FrameOutput { eyes: Vec::new(), nonfinite_samples: 0, camera_samples: 0 })
+}
+
+/// Renders every view of a frame and also reads it out after the first `k` samples per
+/// pixel for each `k` of `checkpoints` below the scene's count (nested sampling: one sample
+/// stream, several sample counts). Returns one output per distinct checkpoint, fewest
+/// samples first, the full count last; each is exactly what rendering that count alone
+/// gives.
+pub fn render_frame_nested(scene: &FrameScene, env: &EnvironmentMap, checkpoints: &[u32]) -> Vec<FrameOutput> {
     let setup = FrameSetup::new(scene);
     let tracer = PathTracer {
         env,
@@ -89,26 +102,34 @@ pub fn render_frame(scene: &FrameScene, env: &EnvironmentMap) -> FrameOutput {
         russian_roulette_from: scene.integrator.russian_roulette_from,
     };
     let spp = scene.samples_per_pixel;
+    let mut levels: Vec<u32> = checkpoints.iter().copied().filter(|&k| k > 0 && k < spp).collect();
+    levels.sort_unstable();
+    levels.dedup();
+    levels.push(spp);
     let dims = dim::BOUNCE_BASE + dim::PER_BOUNCE * scene.integrator.max_bounces;
-    let mut eyes = Vec::with_capacity(scene.views.len());
-    let mut nonfinite = 0u64;
-    let mut samples = 0u64;
+    let mut outputs: Vec<FrameOutput> = levels
+        .iter()
+        .map(|_| FrameOutput { eyes: Vec::with_capacity(scene.views.len()), nonfinite_samples: 0, camera_samples: 0 })
+        .collect();
     for view in &scene.views {
         let cam = &view.camera;
         let rays = CameraRays::new(cam);
         let (w, h) = (cam.width, cam.height);
         let tiles: Vec<(u32, u32)> =
             (0..h.div_ceil(TILE)).flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE))).collect();
-        let results: Vec<(u32, u32, Vec<[f32; 3]>, u64)> = tiles
+        // Per tile and level: its pixels and discarded samples.
+        let results: Vec<(u32, u32, Vec<TileLevel>)> = tiles
             .par_iter()
             .map(|&(x0, y0)| {
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
-                let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-                let mut bad = 0u64;
+                let mut per_level: Vec<TileLevel> =
+                    levels.iter().map(|_| (Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize), 0)).collect();
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let mut sampler = PixelSampler::new(view.seed, x, y, w, dims);
                         let mut sum = DVec3::ZERO;
+                        let mut bad = 0u64;
+                        let mut next = 0;
                         for i in 0..spp {
                             sampler.start_sample(i);
                             let u = sampler.get_2d(dim::PIXEL);
@@ -123,24 +144,34 @@ pub fn render_frame(scene: &FrameScene, env: &EnvironmentMap) -> FrameOutput {
                             } else {
                                 bad += 1;
                             }
+                            if i + 1 == levels[next] && next + 1 < levels.len() {
+                                let mean = sum / f64::from(levels[next]);
+                                per_level[next].0.push([mean.x as f32, mean.y as f32, mean.z as f32]);
+                                per_level[next].1 += bad;
+                                next += 1;
+                            }
                         }
                         let mean = sum / f64::from(spp.max(1));
-                        pixels.push([mean.x as f32, mean.y as f32, mean.z as f32]);
+                        let last = per_level.len() - 1;
+                        per_level[last].0.push([mean.x as f32, mean.y as f32, mean.z as f32]);
+                        per_level[last].1 += bad;
                     }
                 }
-                (x0, y0, pixels, bad)
+                (x0, y0, per_level)
             })
             .collect();
-        let mut img = LinearImage::new(w, h);
-        for (x0, y0, pixels, bad) in results {
-            let tw = (x0 + TILE).min(w) - x0;
-            for (i, p) in pixels.into_iter().enumerate() {
-                img.set(x0 + i as u32 % tw, y0 + i as u32 / tw, p);
+        for (j, out) in outputs.iter_mut().enumerate() {
+            let mut img = LinearImage::new(w, h);
+            out.nonfinite_samples += results.iter().map(|(_, _, levels)| levels[j].1).sum::<u64>();
+            for (x0, y0, per_level) in &results {
+                let tw = (x0 + TILE).min(w) - x0;
+                for (i, p) in per_level[j].0.iter().enumerate() {
+                    img.set(x0 + i as u32 % tw, y0 + i as u32 / tw, *p);
+                }
             }
-            nonfinite += bad;
+            out.camera_samples += u64::from(w) * u64::from(h) * u64::from(levels[j]);
+            out.eyes.push(img);
         }
-        samples += u64::from(w) * u64::from(h) * u64::from(spp);
-        eyes.push(img);
     }
-    FrameOutput { eyes, nonfinite_samples: nonfinite, camera_samples: samples }
+    outputs
 }

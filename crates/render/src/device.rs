@@ -1,0 +1,208 @@
+//! Which device renders: the CPU tracer or the GPU tracer ([`DeviceChoice`], the
+//! `--device auto|cpu|gpu` of the command line), opened once per run with its environment
+//! map ([`Renderer`]). `auto` takes a hardware GPU adapter when there is one and the CPU
+//! otherwise: a software adapter (lavapipe) is slower than the CPU tracer, so only
+//! `--device gpu` uses one.
+
+use std::fmt;
+use std::str::FromStr;
+
+use gpu::{AdapterChoice, DeviceRequest, GpuError, GpuInfo};
+use study::Method;
+use study::manifest::GpuRecord;
+use study::scene::FrameScene;
+
+use crate::env::EnvironmentMap;
+use crate::method::{RenderError, RenderedFrame, compose_eyes};
+use crate::tracer::gpu::{GpuEnvironment, GpuTracer, PendingFrame};
+
+/// The `--device` of a render.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DeviceChoice {
+    /// A hardware GPU adapter if there is one, else the CPU.
+    #[default]
+    Auto,
+    /// The CPU tracer.
+    Cpu,
+    /// A GPU adapter, hardware first, then software (lavapipe); an error without one.
+    Gpu,
+}
+
+impl fmt::Display for DeviceChoice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            DeviceChoice::Auto => "auto",
+            DeviceChoice::Cpu => "cpu",
+            DeviceChoice::Gpu => "gpu",
+        })
+    }
+}
+
+impl FromStr for DeviceChoice {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "auto" => Ok(DeviceChoice::Auto),
+            "cpu" => Ok(DeviceChoice::Cpu),
+            "gpu" => Ok(DeviceChoice::Gpu),
+            other => Err(format!("unknown device `{other}`; expected auto, cpu or gpu")),
+        }
+    }
+}
+
+/// Why a device could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceError {
+    /// `--device gpu` without a usable adapter.
+    #[error("--device gpu: {0}")]
+    NoGpu(GpuError),
+    /// The GPU tracer could not be set up on the adapter.
+    #[error("GPU tracer on {adapter}: {source}")]
+    Setup {
+        /// The adapter.
+        adapter: String,
+        /// Cause.
+        source: crate::tracer::gpu::GpuTracerError,
+    },
+}
+
+/// The GPU half of a [`Renderer`].
+struct GpuDevice {
+    tracer: GpuTracer,
+    env: GpuEnvironment,
+}
+
+/// A device ready to render frames lit by one environment map.
+pub struct Renderer<'env> {
+    env: &'env EnvironmentMap,
+    gpu: Option<GpuDevice>,
+}
+
+/// A frame on its way: rendered already (CPU) or submitted to the GPU.
+pub enum Submitted<'r> {
+    /// Rendered: one frame per level, fewest samples first.
+    Ready(Vec<RenderedFrame>),
+    /// On the GPU.
+    Gpu(PendingFrame<'r>),
+}
+
+impl Submitted<'_> {
+    /// The frame at each level, fewest samples first (waits for the GPU).
+    pub fn finish(self) -> Result<Vec<RenderedFrame>, RenderError> {
+        match self {
+            Submitted::Ready(levels) => Ok(levels),
+            Submitted::Gpu(pending) => {
+                let frame = pending.finish().map_err(|e| RenderError::Gpu(e.to_string()))?;
+                let mut levels: Vec<RenderedFrame> = frame
+                    .prefixes
+                    .into_iter()
+                    .map(|p| RenderedFrame {
+                        image: compose_eyes(p.eyes),
+                        nonfinite_samples: p.nonfinite_samples,
+                        camera_samples: p.camera_samples,
+                        gpu_seconds: p.gpu_seconds,
+                    })
+                    .collect();
+                levels.push(RenderedFrame {
+                    image: compose_eyes(frame.eyes),
+                    nonfinite_samples: frame.nonfinite_samples,
+                    camera_samples: frame.camera_samples,
+                    gpu_seconds: frame.gpu_seconds,
+                });
+                Ok(levels)
+            }
+        }
+    }
+}
+
+impl<'env> Renderer<'env> {
+    /// Opens the device `choice` asks for, for frames lit by `env`.
+    pub fn open(choice: DeviceChoice, env: &'env EnvironmentMap) -> Result<Self, DeviceError> {
+        let adapters = match choice {
+            DeviceChoice::Cpu => return Ok(Renderer::cpu(env)),
+            DeviceChoice::Auto => AdapterChoice::HardwareOnly,
+            DeviceChoice::Gpu => AdapterChoice::HardwareThenSoftware,
+        };
+        let request = DeviceRequest { label: "blurlab tracer", ..DeviceRequest::default() };
+        let ctx = match gpu::acquire(adapters, &request) {
+            Ok(ctx) => ctx,
+            Err(_) if choice == DeviceChoice::Auto => return Ok(Renderer::cpu(env)),
+            Err(e) => return Err(DeviceError::NoGpu(e)),
+        };
+        let adapter = ctx.info.short();
+        let setup = |source| DeviceError::Setup { adapter: adapter.clone(), source };
+        let tracer = GpuTracer::new(ctx).map_err(|e| setup(e.into()))?;
+        let genv = tracer.environment(env).map_err(setup)?;
+        Ok(Renderer { env, gpu: Some(GpuDevice { tracer, env: genv }) })
+    }
+
+    /// The CPU tracer.
+    pub fn cpu(env: &'env EnvironmentMap) -> Self {
+        Renderer { env, gpu: None }
+    }
+
+    /// The GPU adapter, when rendering on one.
+    pub fn gpu_info(&self) -> Option<&GpuInfo> {
+        self.gpu.as_ref().map(|g| g.tracer.info())
+    }
+
+    /// The GPU adapter as manifests record it.
+    pub fn gpu_record(&self) -> Option<GpuRecord> {
+        self.gpu_info().map(|i| GpuRecord {
+            adapter: i.name.clone(),
+            backend: format!("{:?}", i.backend),
+            driver: i.driver.clone(),
+            driver_info: i.driver_info.clone(),
+            software: i.is_software,
+        })
+    }
+
+    /// `cpu: N threads` or `gpu: NAME (BACKEND)`, the manifests' `device`.
+    pub fn device_name(&self) -> String {
+        match self.gpu_info() {
+            Some(info) => format!("gpu: {}", info.short()),
+            None => format!("cpu: {} threads", rayon::current_num_threads()),
+        }
+    }
+
+    /// Whether frames can be submitted ahead (the GPU renders while the CPU encodes).
+    pub fn is_asynchronous(&self) -> bool {
+        self.gpu.is_some()
+    }
+
+    /// Renders `scene` with `method`.
+    pub fn render(&self, method: Method, scene: &FrameScene) -> Result<RenderedFrame, RenderError> {
+        let mut levels = self.submit(method, scene, &[])?.finish()?;
+        Ok(levels.pop().expect("a submission has its full sample count"))
+    }
+
+    /// Starts `scene` with `method`, also reading it out at each sample count of
+    /// `checkpoints` below the scene's (nested sampling); the CPU renders before returning.
+    pub fn submit(
+        &self,
+        method: Method,
+        scene: &FrameScene,
+        checkpoints: &[u32],
+    ) -> Result<Submitted<'_>, RenderError> {
+        match (method, &self.gpu) {
+            (Method::Tracer, Some(g)) => g
+                .tracer
+                .submit_nested(scene, &g.env, checkpoints)
+                .map(Submitted::Gpu)
+                .map_err(|e| RenderError::Gpu(e.to_string())),
+            (Method::Tracer, None) => Ok(Submitted::Ready(
+                crate::tracer::render_frame_nested(scene, self.env, checkpoints)
+                    .into_iter()
+                    .map(|o| RenderedFrame {
+                        image: compose_eyes(o.eyes),
+                        nonfinite_samples: o.nonfinite_samples,
+                        camera_samples: o.camera_samples,
+                        gpu_seconds: None,
+                    })
+                    .collect(),
+            )),
+            (other, _) => Err(RenderError::NotAvailable(other)),
+        }
+    }
+}

@@ -1,0 +1,100 @@
+//! `--device` through the built binary: a set rendered on the GPU (lavapipe in CI) records
+//! its adapter and GPU times and resumes; `--nested` writes the levels of one stream and
+//! records the mode; a set refuses the other mode; `--device gpu` without an adapter is a
+//! clear error and `--device auto` falls back to the CPU.
+
+use std::process::{Command, Output};
+
+use blurlab_e2e::{blurlab, repo_root, shipped_design, stderr};
+use study::manifest::{Sampling, SequenceManifest, SetIndex};
+
+/// `stimuli render` of two sample levels of one quick-preset stream, with `extra` flags.
+fn render(out: &std::path::Path, extra: &[&str], env: &[(&str, &str)]) -> Output {
+    let d = shipped_design();
+    let mut args = vec![
+        "stimuli",
+        "render",
+        "--design",
+        d.to_str().unwrap(),
+        "--preset",
+        "quick",
+        "--only",
+        "M3 S3 T5 A2,A4 mono",
+        "--out",
+        out.to_str().unwrap(),
+        "--progress",
+        "lines",
+    ];
+    args.extend_from_slice(extra);
+    let mut cmd = Command::new(blurlab());
+    cmd.args(&args).current_dir(repo_root());
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("running blurlab")
+}
+
+fn manifest(out: &std::path::Path, id: &str) -> SequenceManifest {
+    SequenceManifest::read(&out.join(id).join("manifest.json")).unwrap()
+}
+
+#[test]
+fn a_set_renders_on_the_gpu_records_the_adapter_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("set");
+    let o = render(&out, &["--device", "gpu"], &[]);
+    if !o.status.success() && stderr(&o).contains("no GPU adapter") {
+        gpu::skip_or_fail("a_set_renders_on_the_gpu_records_the_adapter_and_resumes", &stderr(&o));
+        return;
+    }
+    assert!(o.status.success(), "{}", stderr(&o));
+    for id in ["M3-S3-T5-A2", "M3-S3-T5-A4"] {
+        let m = manifest(&out, id);
+        assert!(m.device.starts_with("gpu: "), "{}", m.device);
+        let gpu = m.gpu.as_ref().expect("the adapter is recorded");
+        assert!(!gpu.adapter.is_empty() && !gpu.backend.is_empty() && !gpu.driver.is_empty());
+        assert_eq!(m.sampling, Sampling::Independent);
+        assert_eq!(m.frames.len(), 8);
+        // GPU seconds come from timestamp queries (lavapipe has them): each frame has them or none does.
+        let with_gpu_time = m.frames.iter().filter(|f| f.gpu_seconds.is_some_and(|s| s > 0.0)).count();
+        assert!(with_gpu_time == 0 || with_gpu_time == m.frames.len());
+        assert!(m.frames.iter().all(|f| f.wall_seconds > 0.0 && f.nonfinite_samples == 0));
+    }
+    assert_ne!(manifest(&out, "M3-S3-T5-A2").frames[0].seeds, manifest(&out, "M3-S3-T5-A4").frames[0].seeds);
+    let o = render(&out, &["--device", "gpu", "--resume"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o).matches("verified, skipped").count(), 2, "{}", stderr(&o));
+
+    // Nested: one stream seeded as the design's top level (A5), levels as prefixes.
+    let nested = dir.path().join("nested");
+    let o = render(&nested, &["--device", "gpu", "--nested"], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(SetIndex::read(&nested.join("index.json")).unwrap().sampling, Sampling::Nested);
+    let (a2, a4) = (manifest(&nested, "M3-S3-T5-A2"), manifest(&nested, "M3-S3-T5-A4"));
+    assert_eq!((a2.sampling, a4.sampling), (Sampling::Nested, Sampling::Nested));
+    assert_eq!((a2.samples_per_pixel, a4.samples_per_pixel), (4, 12));
+    assert_eq!(a2.frames[3].seeds, a4.frames[3].seeds, "one stream");
+    // Costs are recorded as if each level were rendered alone: in proportion to its samples.
+    let ratio = a2.wall_seconds() / a4.wall_seconds();
+    assert!((ratio - 4.0 / 12.0).abs() < 1e-9, "{ratio}");
+    // One set, one mode.
+    let o = render(&nested, &["--device", "gpu"], &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("rendered with --nested"), "{}", stderr(&o));
+}
+
+#[test]
+fn device_gpu_without_an_adapter_is_an_error_and_auto_falls_back_to_the_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("set");
+    let no_adapter = [("WGPU_ADAPTER_NAME", "no-such-adapter-anywhere")];
+    let o = render(&out, &["--device", "gpu"], &no_adapter);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("--device gpu: no GPU adapter: looked for a hardware adapter, then a software one"), "{e}");
+    assert!(!out.join("M3-S3-T5-A2").exists(), "nothing rendered");
+    let o = render(&out, &["--device", "auto"], &no_adapter);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(manifest(&out, "M3-S3-T5-A2").device.starts_with("cpu: "));
+    assert!(manifest(&out, "M3-S3-T5-A2").gpu.is_none());
+}
