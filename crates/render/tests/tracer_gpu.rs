@@ -298,3 +298,23 @@ fn nested_prefixes_are_the_lower_sample_counts_of_the_same_stream() {
         }
     }
 }
+
+#[test]
+fn overflowing_samples_are_counted_and_discarded_as_the_twin_does() {
+    // A furnace lit at 3e38, near the f32 limit: the f64 tracer's sums stay finite, but in
+    // f32 a path that picks up the sky twice overflows. Those samples are discarded and
+    // counted, the image stays finite, and GPU and twin agree on the count.
+    let Some(gpu) = tracer("overflowing_samples_are_counted_and_discarded_as_the_twin_does") else { return };
+    let mut s = furnace_scene();
+    s.lighting.environment = uniform(3.0e38);
+    s.samples_per_pixel = 8;
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let genv = gpu.environment(&env).unwrap();
+    let out = gpu.render_frame(&s, &genv).unwrap();
+    let (twin, twin_bad) = cpu::render_frame(&s, genv.tables(), &Specialisation::of(&s)).unwrap();
+    assert!(out.nonfinite_samples > 0, "no sample overflowed");
+    assert!(out.nonfinite_samples < out.camera_samples / 2, "{} of {}", out.nonfinite_samples, out.camera_samples);
+    assert_eq!(out.nonfinite_samples, twin_bad);
+    assert!(out.eyes[0].pixels.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(max_abs_difference(&out.eyes[0], &twin[0]).0 < 1e-4);
+}

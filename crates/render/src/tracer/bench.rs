@@ -139,6 +139,9 @@ pub enum BenchError {
     /// The peer renderer.
     #[error("{0}")]
     Peer(String),
+    /// The GPU tracer.
+    #[error("GPU tracer: {0}")]
+    Gpu(String),
 }
 
 fn read(path: &Path) -> Result<Vec<u8>, BenchError> {

@@ -1,4 +1,7 @@
-//! `blurlab bench tracer [--json]`: camera samples per second of the CPU tracer on the
+//! `blurlab bench tracer [--json] [--device cpu|gpu|auto]`: with `--device gpu`, the GPU
+//! tracer's benchmark (`render::tracer::gpu::bench`: camera samples per second from GPU
+//! timestamps, the CPU tracer beside it, what each kernel specialisation saves). With the
+//! default `--device cpu`: camera samples per second of the CPU tracer on the
 //! full-resolution M3-S3-T5 frame, and, side by side in the same run, Mitsuba 3
 //! (`scalar_rgb`, `path` integrator of the same depth) on the same static frame at the same
 //! samples per pixel, with the noise of both at that sample count
@@ -8,6 +11,10 @@
 use std::path::PathBuf;
 
 use render::tracer::bench::{BenchOptions, run_benchmark};
+use render::tracer::gpu::bench::{GpuBenchOptions, run_gpu_benchmark};
+
+use crate::cmd::BadInput;
+use crate::cmd::stimuli::DeviceArg;
 
 /// Arguments.
 #[derive(clap::Args)]
@@ -40,10 +47,63 @@ pub struct Args {
     /// rate is its best render over all rounds.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
     rounds: u32,
+    /// Which tracer: `cpu` (against the peer), `gpu` (a hardware adapter, else a software
+    /// one) or `auto` (a hardware GPU if there is one, else the CPU).
+    #[arg(long, value_enum, default_value_t = DeviceArg::Cpu)]
+    device: DeviceArg,
+    /// With a GPU: samples per pixel of the CPU tracer's render of the same frame, measured
+    /// in the same run (0: none).
+    #[arg(long, default_value_t = 16)]
+    cpu_spp: u32,
+}
+
+fn gpu_tracer(device: DeviceArg) -> anyhow::Result<Option<render::tracer::gpu::GpuTracer>> {
+    let adapters = match device {
+        DeviceArg::Cpu => return Ok(None),
+        DeviceArg::Auto => gpu::AdapterChoice::HardwareOnly,
+        DeviceArg::Gpu => gpu::AdapterChoice::HardwareThenSoftware,
+    };
+    match gpu::acquire(adapters, &gpu::DeviceRequest::default()) {
+        Ok(ctx) => Ok(Some(render::tracer::gpu::GpuTracer::new(ctx)?)),
+        Err(_) if matches!(device, DeviceArg::Auto) => Ok(None),
+        Err(e) => Err(BadInput(format!("--device gpu: {e}")).into()),
+    }
 }
 
 /// Runs the benchmark.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(tracer) = gpu_tracer(args.device)? {
+        let opts = GpuBenchOptions { design: args.design, spp: args.spp, cpu_spp: args.cpu_spp, rounds: args.rounds };
+        let result = run_gpu_benchmark(&tracer, &opts)?;
+        if args.json {
+            println!("{}", serde_json::to_string_pretty(&result)?);
+        } else {
+            let rate = |v: &serde_json::Value| v["camera_samples_per_second"].as_f64().unwrap_or(f64::NAN);
+            println!(
+                "{}: {:.1} M camera samples/s (moving M3-S3-T5, {} spp), {:.1} M/s static",
+                result["adapter"]["name"].as_str().unwrap_or("?"),
+                rate(&result["gpu"]["moving_frame"]) / 1e6,
+                args.spp,
+                rate(&result["gpu"]["static_frame"]) / 1e6
+            );
+            if let Some(r) = result["gpu_over_cpu"].as_f64() {
+                println!("GPU over the CPU tracer on this machine: {r:.2}x");
+            }
+            for s in result["specialisations"].as_array().into_iter().flatten() {
+                println!(
+                    "  {}: {:.0} % of the time saved",
+                    s["what"].as_str().unwrap_or("?"),
+                    100.0 * s["time_saved_fraction"].as_f64().unwrap_or(f64::NAN)
+                );
+            }
+            println!(
+                "full set projected: {:.1} min independent, {:.1} min nested",
+                result["full_set_projection"]["minutes_independent"].as_f64().unwrap_or(f64::NAN),
+                result["full_set_projection"]["minutes_nested"].as_f64().unwrap_or(f64::NAN)
+            );
+        }
+        return Ok(());
+    }
     let opts = BenchOptions {
         design: args.design,
         spp: args.spp,

@@ -7,8 +7,10 @@
 //!   its specialisation by pipeline override constants.
 //! - [`cpu`]: the kernel's CPU twin in f32, a Rust function per WGSL function.
 //! - [`device`]: the host side, [`GpuTracer`].
+//! - [`bench`]: `blurlab bench tracer --device gpu`.
 //! - [`assembler`]: the WGSL assembler that knows the render crate's shader includes.
 
+pub mod bench;
 pub mod cpu;
 pub mod device;
 pub mod params;

@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# The GPU tracer's measurement in one call: the benchmark (`bench tracer --device gpu`), then
+# a timed slice of the full study set (all five sample levels of M3-S3-T5, mono and stereo,
+# 120 frames each, PNGs written), rendered once independently and once with --nested.
+# Prints one JSON object on stdout; progress goes to stderr. Meant for a machine with a real
+# GPU (under 8 minutes on one NVIDIA H200); with QUICK=1 it runs the quick preset instead
+# (minutes on lavapipe, to check the script itself).
+#
+# The binary: $BLURLAB_BIN, else ./bin/blurlab (a stripped release build carried to a machine
+# without Rust), else `cargo build --release` here. The Vulkan loader: where `ldconfig -p`
+# has no libvulkan and .gl/*.deb exist (downloaded as ../shared/ENVIRONMENT.md and the device
+# notes say), they are unpacked first. Results also go to $OUT (or ./results/gpu-full-set).
+#
+# Usage: bench/gpu-full-set.sh            (from the repository root)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+log() { echo "gpu-full-set: $*" >&2; }
+
+if ! ldconfig -p 2>/dev/null | grep -q libvulkan.so && compgen -G ".gl/*.deb" >/dev/null; then
+  log "unpacking the Vulkan loader from .gl/"
+  for f in .gl/*.deb; do dpkg -x "$f" /; done
+  ldconfig
+fi
+nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+if [ -z "${VK_DRIVER_FILES:-}" ] && [ -f "$nvidia_icd" ]; then
+  export VK_DRIVER_FILES="$nvidia_icd"
+fi
+
+bin="${BLURLAB_BIN:-}"
+if [ -z "$bin" ]; then
+  if [ -x bin/blurlab ]; then
+    bin=bin/blurlab
+  else
+    log "building the release binary"
+    cargo build --release --quiet -p blurlab
+    bin=target/release/blurlab
+  fi
+fi
+
+out="${OUT:-results/gpu-full-set}"
+mkdir -p "$out"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+
+if [ "${QUICK:-0}" = 1 ]; then
+  preset=quick; spp=8; cpu_spp=2; rounds=1
+else
+  preset=full; spp=256; cpu_spp=8; rounds=3
+fi
+
+now() { date +%s.%N; }
+
+log "benchmark ($bin, spp $spp)"
+"$bin" bench tracer --device gpu --json --spp "$spp" --cpu-spp "$cpu_spp" --rounds "$rounds" >"$out/bench.json"
+
+calc() { awk "BEGIN { printf \"%.3f\", $1 }"; }
+
+# The slice is one of the design's 45 (material, speed, shutter) cells with all its levels
+# and views; M3-S3-T5 is the most expensive cell, so 45 x the slice bounds the full set.
+cells=45
+
+slice() { # $1: name, then extra flags; prints the slice's JSON
+  local name=$1
+  shift
+  local t0 t1 seconds frames bytes
+  t0=$(now)
+  "$bin" stimuli render --preset "$preset" --only "M3 S3 T5 *" --device gpu --progress lines \
+    --out "$work/$name" "$@" 2>"$out/$name.log"
+  t1=$(now)
+  seconds=$(calc "$t1 - $t0")
+  frames=$(find "$work/$name" -name 'frame-*.png' | wc -l)
+  bytes=$(du -sb "$work/$name" | cut -f1)
+  cp "$work/$name/M3-S3-T5-A5/manifest.json" "$out/$name-A5-manifest.json"
+  echo "{\"seconds\": $seconds, \"png_frames\": $frames, \"bytes_written\": $bytes, \"full_set_bound_minutes\": $(calc "$seconds * $cells / 60")}"
+}
+
+log "slice, independent levels"
+independent=$(slice independent)
+log "slice, nested levels"
+nested=$(slice nested --nested)
+
+cat <<EOF | tee "$out/result.json"
+{
+  "script": "bench/gpu-full-set.sh",
+  "preset": "$preset",
+  "binary": "$bin",
+  "bench": $(cat "$out/bench.json"),
+  "slice": {
+    "sequences": "M3-S3-T5, levels A1-A5, mono and stereo, every frame, PNGs written",
+    "note": "full_set_bound_minutes: 45 cells times this one, the most expensive",
+    "independent": $independent,
+    "nested": $nested
+  }
+}
+EOF
