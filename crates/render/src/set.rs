@@ -498,6 +498,12 @@ fn render_stream(
                 while queued.load(std::sync::atomic::Ordering::SeqCst) > ENCODES_QUEUED {
                     rayon::yield_now();
                 }
+                // A failed write (a full disk) stops the sequence at once.
+                let mut results = written.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                if let Some(i) = results.iter().position(Result::is_err) {
+                    return results.swap_remove(i).map(|_| ());
+                }
+                drop(results);
                 on_frame(cost);
                 Ok(())
             };
@@ -737,16 +743,32 @@ mod tests {
 
     #[test]
     fn a_full_disk_is_reported_with_the_file_and_keeps_finished_sequences() {
+        full_disk(DeviceChoice::Cpu);
+    }
+
+    #[test]
+    fn a_full_disk_on_the_gpu_path_stops_the_set_the_same_way() {
+        // Frames are written on the thread pool while the GPU renders the next ones.
+        if let Err(e) = gpu::acquire(gpu::AdapterChoice::HardwareThenSoftware, &gpu::DeviceRequest::default()) {
+            gpu::skip_or_fail("set::tests::a_full_disk_on_the_gpu_path_stops_the_set_the_same_way", &e);
+            return;
+        }
+        full_disk(DeviceChoice::Gpu);
+    }
+
+    fn full_disk(device: DeviceChoice) {
         let d = design();
         let dir = tempfile::tempdir().unwrap();
         let ids = ["M1-S1-T1-A1", "M1-S1-T1-A2"];
         // index, 2 frames x (png + exr), manifest, index: 7 writes finish the first sequence.
         let disk = FillingDisk { room: 8, writes: AtomicUsize::new(0) };
-        let e = render_set_with(&request(&d, dir.path(), &ids), &disk).unwrap_err();
+        let e = render_set_with(&SetRequest { device, ..request(&d, dir.path(), &ids) }, &disk).unwrap_err();
         let SetError::Io { path, source, .. } = &e else { panic!("{e}") };
         assert_eq!(source.kind(), io::ErrorKind::StorageFull);
         assert!(path.starts_with(dir.path().join("M1-S1-T1-A2")), "{e}");
-        assert!(e.to_string().contains("frame-0000"), "{e}");
+        // The CPU writes frames in order; the GPU path's pool may reach frame 1 first.
+        assert!(e.to_string().contains("frame-000"), "{e}");
+        assert!(device != DeviceChoice::Cpu || e.to_string().contains("frame-0000"), "{e}");
         let index = SetIndex::read(&dir.path().join("index.json")).unwrap();
         assert_eq!(index.sequences.len(), 1);
         let req = request(&d, dir.path(), &ids);
