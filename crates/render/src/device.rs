@@ -7,7 +7,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use gpu::{AdapterChoice, DeviceRequest, GpuError, GpuInfo};
+use gpu::{AdapterChoice, GpuError, GpuInfo};
 use study::Method;
 use study::manifest::GpuRecord;
 use study::scene::FrameScene;
@@ -124,8 +124,7 @@ impl<'env> Renderer<'env> {
             DeviceChoice::Auto => AdapterChoice::HardwareOnly,
             DeviceChoice::Gpu => AdapterChoice::HardwareThenSoftware,
         };
-        let request = DeviceRequest { label: "blurlab tracer", ..DeviceRequest::default() };
-        let ctx = match gpu::acquire(adapters, &request) {
+        let ctx = match gpu::acquire(adapters, &crate::tracer::gpu::device::device_request()) {
             Ok(ctx) => ctx,
             Err(_) if choice == DeviceChoice::Auto => return Ok(Renderer::cpu(env)),
             Err(e) => return Err(DeviceError::NoGpu(e)),

@@ -124,6 +124,17 @@ pub struct GpuTracer {
     timestamps: bool,
 }
 
+/// The device the tracer asks for: the default request (timestamps where offered) with the
+/// storage-binding and buffer-size limits raised to whatever the adapter offers, so images
+/// larger than wgpu's default 128 MiB binding render where the hardware allows them.
+pub fn device_request() -> gpu::DeviceRequest {
+    let mut request = gpu::DeviceRequest { label: "blurlab tracer", ..gpu::DeviceRequest::default() };
+    // Clamped to the adapter's own limits by `gpu::acquire`.
+    request.limits.max_storage_buffer_binding_size = u64::MAX;
+    request.limits.max_buffer_size = u64::MAX;
+    request
+}
+
 /// The assembled kernel source (sampler included, sampling dimensions declared).
 pub fn kernel_source() -> Result<String, GpuError> {
     super::assembler().assemble("tracer.wgsl", include_str!("../../../shaders/tracer.wgsl"))
