@@ -318,3 +318,23 @@ fn overflowing_samples_are_counted_and_discarded_as_the_twin_does() {
     assert!(out.eyes[0].pixels.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
     assert!(max_abs_difference(&out.eyes[0], &twin[0]).0 < 1e-4);
 }
+
+#[test]
+fn a_frame_split_into_many_dispatches_is_the_frame_of_one() {
+    // Each dispatch carries the pixels' f32 sums on in the accumulator, so splitting the
+    // samples into batches changes nothing, also across nested checkpoints.
+    let Some(gpu) = tracer("a_frame_split_into_many_dispatches_is_the_frame_of_one") else { return };
+    let design = design();
+    let env = EnvironmentMap::from_lighting(&design.lighting).unwrap();
+    let genv = gpu.environment(&env).unwrap();
+    let s = study_scene(&design, 2, 5, View::Stereo, 11);
+    let whole = gpu.submit_nested(&s, &genv, &[4]).unwrap().finish().unwrap();
+    let split = gpu.with_samples_per_dispatch(u64::from(3 * W * H));
+    let genv = split.environment(&env).unwrap();
+    let parts = split.submit_nested(&s, &genv, &[4]).unwrap().finish().unwrap();
+    // 11 samples in batches of 3, split at 4: 3 + 1 + 3 + 3 + 1 per eye.
+    assert_eq!((whole.dispatches, parts.dispatches), (4, 10));
+    assert_eq!(parts.eyes, whole.eyes);
+    assert_eq!(parts.prefixes[0].eyes, whole.prefixes[0].eyes);
+    assert_eq!(parts.nonfinite_samples, whole.nonfinite_samples);
+}

@@ -6,9 +6,12 @@
 //! A frame is submitted ([`GpuTracer::submit`]) and collected later ([`PendingFrame::finish`]),
 //! so a caller can submit the next frame before reading this one back: the GPU then works
 //! while the CPU reads, encodes and writes (what `render_set` does). A batch holds at most
-//! [`SAMPLES_PER_DISPATCH`] camera samples, short enough for any driver watchdog (a
-//! 640 x 360 frame at 512 samples is 12 dispatches); the dispatch grid is checked against
-//! the device's workgroup limit and the buffers against its storage binding limit.
+//! [`SAMPLES_PER_DISPATCH`] camera samples on a hardware adapter (a 640 x 360 eye at 512
+//! samples is 4 dispatches of about 2 ms each at 20 G samples/s, 70 ms at 0.5 G/s: far from
+//! any driver watchdog's 2 s) and [`SAMPLES_PER_DISPATCH_SOFTWARE`] on a software one (29
+//! dispatches, a few seconds each on lavapipe); each is its own submission. The dispatch
+//! grid is checked against the device's workgroup limit and the buffers against its
+//! storage binding limit.
 
 use std::collections::HashMap;
 use std::sync::Mutex;
@@ -22,9 +25,10 @@ use super::params::{Accum, Batch, EnvTables, FrameParams, ParamsError, Specialis
 use crate::env::EnvironmentMap;
 use crate::io::LinearImage;
 
-/// Camera samples one dispatch traces at most: 2^22, a few milliseconds on a large GPU
-/// and a few seconds on lavapipe.
-pub const SAMPLES_PER_DISPATCH: u64 = 1 << 22;
+/// Camera samples one dispatch traces at most on a hardware adapter: 2^25.
+pub const SAMPLES_PER_DISPATCH: u64 = 1 << 25;
+/// Camera samples one dispatch traces at most on a software adapter: 2^22.
+pub const SAMPLES_PER_DISPATCH_SOFTWARE: u64 = 1 << 22;
 
 const WORKGROUP: u32 = 8;
 
@@ -122,6 +126,7 @@ pub struct GpuTracer {
     pipeline_layout: wgpu::PipelineLayout,
     pipelines: Mutex<HashMap<Specialisation, wgpu::ComputePipeline>>,
     timestamps: bool,
+    samples_per_dispatch: u64,
 }
 
 /// The device the tracer asks for: the default request (timestamps where offered) with the
@@ -187,7 +192,24 @@ impl GpuTracer {
             immediate_size: 0,
         });
         let timestamps = ctx.info.features.contains(wgpu::Features::TIMESTAMP_QUERY);
-        Ok(GpuTracer { ctx, module, layout, pipeline_layout, pipelines: Mutex::new(HashMap::new()), timestamps })
+        let samples_per_dispatch =
+            if ctx.info.is_software { SAMPLES_PER_DISPATCH_SOFTWARE } else { SAMPLES_PER_DISPATCH };
+        Ok(GpuTracer {
+            ctx,
+            module,
+            layout,
+            pipeline_layout,
+            pipelines: Mutex::new(HashMap::new()),
+            timestamps,
+            samples_per_dispatch,
+        })
+    }
+
+    /// The same tracer with at most `samples` camera samples per dispatch (at least one
+    /// sample per pixel is always dispatched).
+    pub fn with_samples_per_dispatch(mut self, samples: u64) -> Self {
+        self.samples_per_dispatch = samples;
+        self
     }
 
     /// The adapter and device.
@@ -338,7 +360,7 @@ impl GpuTracer {
                 .collect();
             // Batches of at most `per_batch` samples, split at every checkpoint; `ends[j]` is
             // the batch that completes checkpoint j.
-            let per_batch = (SAMPLES_PER_DISPATCH / pixels).clamp(1, u64::from(u32::MAX)) as u32;
+            let per_batch = (self.samples_per_dispatch / pixels).clamp(1, u64::from(u32::MAX)) as u32;
             let mut batches = Vec::new();
             let mut ends = Vec::new();
             let mut first = 0u32;
@@ -401,11 +423,15 @@ impl GpuTracer {
                     device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("batch") });
                 let completes = ends.iter().position(|e| *e == Some(i));
                 {
-                    let timestamp_writes = queries.as_ref().map(|(set, ..)| wgpu::ComputePassTimestampWrites {
-                        query_set: set,
-                        beginning_of_pass_write_index: (i == 0).then_some(0),
-                        end_of_pass_write_index: completes.map(|j| 1 + j as u32),
-                    });
+                    // Only the first pass and those that complete a checkpoint write timestamps
+                    // (a pass may not name an empty pair).
+                    let marked = i == 0 || completes.is_some();
+                    let timestamp_writes =
+                        queries.as_ref().filter(|_| marked).map(|(set, ..)| wgpu::ComputePassTimestampWrites {
+                            query_set: set,
+                            beginning_of_pass_write_index: (i == 0).then_some(0),
+                            end_of_pass_write_index: completes.map(|j| 1 + j as u32),
+                        });
                     let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                         label: Some("trace_batch"),
                         timestamp_writes,
