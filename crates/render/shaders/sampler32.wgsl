@@ -34,20 +34,17 @@ fn sampler32_laine_karras(x0: u32, seed: u32) -> u32 {
     return x;
 }
 
-// The second Sobol dimension (primitive polynomial x + 1), 32-bit fraction: each direction
-// number is the previous one xor itself shifted right by one.
-fn sampler32_sobol1(i: u32) -> u32 {
-    var bits = i;
-    var direction = 0x80000000u;
-    var r = 0u;
-    while bits != 0u {
-        if (bits & 1u) != 0u {
-            r ^= direction;
-        }
-        bits >>= 1u;
-        direction ^= direction >> 1u;
-    }
-    return r;
+// The second Sobol dimension (primitive polynomial x + 1), bit-reversed: the xor of each
+// bit's supersets among the index bits (its generator is Pascal's triangle mod 2), in five
+// shift-and-xor steps (`sampler32::sobol1_reversed` explains it).
+fn sampler32_sobol1_reversed(i: u32) -> u32 {
+    var x = i;
+    x ^= (x >> 1u) & 0x55555555u;
+    x ^= (x >> 2u) & 0x33333333u;
+    x ^= (x >> 4u) & 0x0f0f0f0fu;
+    x ^= (x >> 8u) & 0x00ff00ffu;
+    x ^= (x >> 16u) & 0x0000ffffu;
+    return x;
 }
 
 fn sampler32_shuffled_index(index: u32, dim: u32, shuffle: u32) -> u32 {
@@ -69,7 +66,7 @@ fn sampler32_2d_bits(pixel_seed: u32, index: u32, dim: u32) -> vec2<u32> {
     let i = sampler32_shuffled_index(index, dim, s.x);
     return vec2<u32>(
         reverseBits(sampler32_laine_karras(i, s.y)),
-        reverseBits(sampler32_laine_karras(reverseBits(sampler32_sobol1(i)), s.z)),
+        reverseBits(sampler32_laine_karras(sampler32_sobol1_reversed(i), s.z)),
     );
 }
 
