@@ -59,6 +59,33 @@ pub fn freeze_at(scene: &mut FrameScene, t: f64) {
     scene.shutter = study::scene::Shutter { open: t, close: t };
 }
 
+/// Camera samples of the design's whole full-preset set, every (M, S, T) at every A level,
+/// mono (1 eye) and stereo (2 eyes), every frame: rendered independently, and nested (each
+/// stream once, at the highest level).
+pub fn full_set_camera_samples(design: &Design) -> Result<(f64, f64), study::design::DesignError> {
+    let preset = design.preset("full")?;
+    let mst = f64::from(design.level_count(study::ids::Factor::Material))
+        * f64::from(design.level_count(study::ids::Factor::Speed))
+        * f64::from(design.level_count(study::ids::Factor::Shutter));
+    let per_frame = 3.0 * f64::from(preset.frames) * f64::from(preset.width) * f64::from(preset.height);
+    let spp_sum: f64 = preset.samples_per_pixel.iter().map(|&s| f64::from(s)).sum();
+    let spp_max = preset.samples_per_pixel.iter().copied().max().map_or(0.0, f64::from);
+    Ok((mst * spp_sum * per_frame, mst * spp_max * per_frame))
+}
+
+/// The benchmark frame as the benchmarks' JSON describes it.
+pub fn frame_json(scene: &FrameScene) -> serde_json::Value {
+    json!({
+        "stimulus": BENCH_STIMULUS.to_string(),
+        "frame": scene.frame,
+        "width": scene.views[0].camera.width,
+        "height": scene.views[0].camera.height,
+        "samples_per_pixel": scene.samples_per_pixel,
+        "max_bounces": scene.integrator.max_bounces,
+        "russian_roulette_from": scene.integrator.russian_roulette_from,
+    })
+}
+
 /// The sphere of a static frame as another renderer needs it: centre, rotation (object to
 /// world, row-major) and the albedo texture baked over Mitsuba's sphere parametrisation.
 pub struct PeerSphere {
@@ -274,15 +301,7 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
     let ours_mean = mean_rgb(&[&static_a.image, &static_b.image]);
     let moving_sps = best(moving_run.samples, &moving_seconds);
 
-    let preset = design.preset("full")?;
-    // Camera samples of the whole set: every (M, S, T) at every A level, mono (1 eye) and
-    // stereo (2 eyes), every frame.
-    let mst = f64::from(design.level_count(study::ids::Factor::Material))
-        * f64::from(design.level_count(study::ids::Factor::Speed))
-        * f64::from(design.level_count(study::ids::Factor::Shutter));
-    let spp_sum: f64 = preset.samples_per_pixel.iter().map(|&s| f64::from(s)).sum();
-    let set_samples =
-        mst * spp_sum * 3.0 * f64::from(preset.frames) * f64::from(preset.width) * f64::from(preset.height);
+    let (set_samples, _) = full_set_camera_samples(&design)?;
     let set_seconds = set_samples / moving_sps;
 
     let mut result = json!({
@@ -296,15 +315,7 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
             "fma": cfg!(target_feature = "fma"),
             "bmi2": cfg!(target_feature = "bmi2"),
         },
-        "frame": {
-            "stimulus": BENCH_STIMULUS.to_string(),
-            "frame": moving.frame,
-            "width": moving.views[0].camera.width,
-            "height": moving.views[0].camera.height,
-            "samples_per_pixel": opts.spp,
-            "max_bounces": moving.integrator.max_bounces,
-            "russian_roulette_from": moving.integrator.russian_roulette_from,
-        },
+        "frame": frame_json(&moving),
         "blurlab": {
             "moving_frame": {
                 "seconds": moving_seconds,

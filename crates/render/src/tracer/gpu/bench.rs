@@ -14,7 +14,7 @@ use study::scene::FrameScene;
 use super::params::Specialisation;
 use super::{GpuEnvironment, GpuTracer};
 use crate::env::EnvironmentMap;
-use crate::tracer::bench::{BENCH_STIMULUS, BenchError, benchmark_frame};
+use crate::tracer::bench::{BENCH_STIMULUS, BenchError, benchmark_frame, frame_json, full_set_camera_samples};
 
 /// Options of [`run_gpu_benchmark`].
 #[derive(Clone, Debug)]
@@ -149,13 +149,7 @@ pub fn run_gpu_benchmark(tracer: &GpuTracer, opts: &GpuBenchOptions) -> Result<s
         None
     };
 
-    let preset = design.preset("full")?;
-    let mst = f64::from(design.level_count(study::ids::Factor::Material))
-        * f64::from(design.level_count(study::ids::Factor::Speed))
-        * f64::from(design.level_count(study::ids::Factor::Shutter));
-    let per_frame = 3.0 * f64::from(preset.frames) * f64::from(preset.width) * f64::from(preset.height);
-    let spp_sum: f64 = preset.samples_per_pixel.iter().map(|&s| f64::from(s)).sum();
-    let spp_max = preset.samples_per_pixel.iter().copied().max().map_or(0.0, f64::from);
+    let (independent, nested) = full_set_camera_samples(&design)?;
     let moving_rate = moving_run.camera_samples as f64 / moving_run.seconds();
     let info = tracer.info();
     let mut report = json!({
@@ -170,13 +164,7 @@ pub fn run_gpu_benchmark(tracer: &GpuTracer, opts: &GpuBenchOptions) -> Result<s
             "timestamps": moving_run.gpu_seconds.is_some(),
         },
         "cpu_threads": rayon::current_num_threads(),
-        "frame": {
-            "stimulus": BENCH_STIMULUS.to_string(),
-            "frame": moving.frame,
-            "width": moving.views[0].camera.width,
-            "height": moving.views[0].camera.height,
-            "samples_per_pixel": opts.spp,
-        },
+        "frame": frame_json(&moving),
         "rounds": rounds,
         "gpu": {
             "moving_frame": moving_run.json(),
@@ -189,10 +177,10 @@ pub fn run_gpu_benchmark(tracer: &GpuTracer, opts: &GpuBenchOptions) -> Result<s
             saving(&moving_run, &stereo_run, "mono frame: one eye (against the stereo frame's two)"),
         ],
         "full_set_projection": {
-            "camera_samples_independent": mst * spp_sum * per_frame,
-            "minutes_independent": mst * spp_sum * per_frame / moving_rate / 60.0,
-            "camera_samples_nested": mst * spp_max * per_frame,
-            "minutes_nested": mst * spp_max * per_frame / moving_rate / 60.0,
+            "camera_samples_independent": independent,
+            "minutes_independent": independent / moving_rate / 60.0,
+            "camera_samples_nested": nested,
+            "minutes_nested": nested / moving_rate / 60.0,
             "note": "tracing only, at the moving frame's rate; PNG writing overlaps it",
         },
     });
