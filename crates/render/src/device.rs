@@ -131,9 +131,18 @@ impl<'env> Renderer<'env> {
         };
         let adapter = ctx.info.short();
         let setup = |source| DeviceError::Setup { adapter: adapter.clone(), source };
-        let tracer = GpuTracer::new(ctx).map_err(|e| setup(e.into()))?;
-        let genv = tracer.environment(env).map_err(setup)?;
-        Ok(Renderer { env, gpu: Some(GpuDevice { tracer, env: genv }) })
+        let opened = GpuTracer::new(ctx)
+            .map_err(|e| setup(e.into()))
+            .and_then(|tracer| Ok(GpuDevice { env: tracer.environment(env).map_err(setup)?, tracer }));
+        match opened {
+            Ok(gpu) => Ok(Renderer { env, gpu: Some(gpu) }),
+            // `auto` promises a render: a GPU that cannot run the tracer leaves it to the CPU.
+            Err(e) if choice == DeviceChoice::Auto => {
+                eprintln!("warning: {e}; rendering on the CPU instead");
+                Ok(Renderer::cpu(env))
+            }
+            Err(e) => Err(e),
+        }
     }
 
     /// The CPU tracer.
