@@ -109,3 +109,41 @@ fn device_gpu_without_an_adapter_is_an_error_and_auto_falls_back_to_the_cpu() {
     assert!(manifest(&out, "M3-S3-T5-A1").device.starts_with("cpu: "));
     assert!(manifest(&out, "M3-S3-T5-A1").gpu.is_none());
 }
+
+#[test]
+fn the_gpu_benchmark_reports_rates_the_adapter_and_the_cpu_beside_it() {
+    let o = blurlab_e2e::run(&[
+        "bench",
+        "tracer",
+        "--device",
+        "gpu",
+        "--json",
+        "--spp",
+        "1",
+        "--cpu-spp",
+        "1",
+        "--rounds",
+        "1",
+    ]);
+    if !o.status.success() && stderr(&o).contains("no GPU adapter") {
+        gpu::skip_or_fail("the_gpu_benchmark_reports_rates_the_adapter_and_the_cpu_beside_it", &stderr(&o));
+        return;
+    }
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_str(&blurlab_e2e::stdout(&o)).unwrap();
+    assert_eq!(r["benchmark"], "tracer-gpu");
+    assert!(r["adapter"]["name"].as_str().is_some_and(|n| !n.is_empty()));
+    assert_eq!((r["frame"]["width"].as_u64(), r["frame"]["height"].as_u64()), (Some(640), Some(360)));
+    let moving = &r["gpu"]["moving_frame"];
+    assert_eq!(moving["camera_samples"].as_u64(), Some(640 * 360));
+    assert!(moving["camera_samples_per_second"].as_f64().is_some_and(|v| v > 0.0));
+    // GPU time from timestamps where the adapter has them.
+    assert_eq!(moving["gpu_seconds"].is_number(), r["adapter"]["timestamps"] == true);
+    assert!(r["cpu"]["moving_frame"]["camera_samples_per_second"].as_f64().is_some_and(|v| v > 0.0));
+    assert!(r["gpu_over_cpu"].as_f64().is_some_and(|v| v > 0.0));
+    let savings = r["specialisations"].as_array().unwrap();
+    assert_eq!(savings.len(), 3);
+    assert!(savings.iter().all(|s| s["time_saved_fraction"].is_number()));
+    let projection = &r["full_set_projection"];
+    assert!(projection["minutes_nested"].as_f64().unwrap() < projection["minutes_independent"].as_f64().unwrap());
+}
