@@ -422,7 +422,7 @@ fn env_sample(u: vec2<f32>) -> EnvSample {
 
 // ---- Materials. ----
 
-fn smoothstep_(e0: f32, e1: f32, x: f32) -> f32 {
+fn smooth_step(e0: f32, e1: f32, x: f32) -> f32 {
     let t = clamp((x - e0) / (e1 - e0), 0.0, 1.0);
     return t * t * (3.0 - 2.0 * t);
 }
@@ -542,7 +542,7 @@ fn filtered_noise(q: vec3<f32>, footprint: f32) -> f32 {
     var amp = 1.0;
     for (var k = 0u; k < params.octaves; k++) {
         norm += amp;
-        let w = 1.0 - smoothstep_(0.25, 0.5, freq * footprint);
+        let w = 1.0 - smooth_step(0.25, 0.5, freq * footprint);
         if w > 0.0 {
             sum += amp * w * gradient_noise(q * freq, params.noise_seed + k * 0x9e3779b9u);
         }

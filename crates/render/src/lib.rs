@@ -1,7 +1,7 @@
-//! Pixels from a stimulus. `method` is the one entry point per rendering method
-//! ([`render_frame`]). `tracer` is the distribution (Monte Carlo) ray tracer whose CPU
+//! Pixels from a stimulus. [`Renderer`] (`device`) renders a frame with any rendering
+//! method on the chosen device; `method` holds what a render gives and [`render_frame`],
+//! the CPU shorthand. `tracer` is the distribution (Monte Carlo) ray tracer whose CPU
 //! path is the reference; `env` loads, generates and importance-samples environment maps;
-//! `device` chooses the CPU or the GPU tracer (`--device`) and renders through it;
 //! `io` turns linear radiance into PNG/EXR files; `set` renders whole stimulus sets with
 //! manifests and resume; `numeric` holds the robust numerics every method shares.
 

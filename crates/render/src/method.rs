@@ -1,7 +1,7 @@
-//! One entry point per rendering method: [`render_frame`] turns a frame's scene into one
-//! linear image (a stereo frame's eyes side by side, left eye left) with whichever
-//! [`Method`] the set names. Set rendering, `render-frame`, benchmarks and the cost report
-//! all render through it, so a new method is added here once.
+//! What rendering a frame with a [`Method`] gives ([`RenderedFrame`]: one linear image, a
+//! stereo frame's eyes side by side, left eye left) and why it can fail ([`RenderError`]).
+//! Methods are dispatched in one place, [`crate::Renderer::submit`], on whichever device was
+//! opened; [`render_frame`] is its CPU shorthand. A new method is added there once.
 
 use study::Method;
 use study::scene::FrameScene;
@@ -38,20 +38,9 @@ pub fn is_available(method: Method) -> bool {
     matches!(method, Method::Tracer)
 }
 
-/// Renders the frame `scene` with `method` on the CPU.
+/// Renders the frame `scene` with `method` on the CPU ([`crate::Renderer::cpu`]).
 pub fn render_frame(method: Method, scene: &FrameScene, env: &EnvironmentMap) -> Result<RenderedFrame, RenderError> {
-    match method {
-        Method::Tracer => {
-            let output = crate::tracer::render_frame(scene, env);
-            Ok(RenderedFrame {
-                image: compose_eyes(output.eyes),
-                nonfinite_samples: output.nonfinite_samples,
-                camera_samples: output.camera_samples,
-                gpu_seconds: None,
-            })
-        }
-        other => Err(RenderError::NotAvailable(other)),
-    }
+    crate::Renderer::cpu(env).render(method, scene)
 }
 
 /// One image of a frame's eyes: the single eye of a mono frame, or the eyes side by side.

@@ -1,6 +1,6 @@
 //! The rendering method of a stimulus set: which algorithm turns a frame's scene into
 //! pixels. Design files name it (`[method] kind = "tracer"`, the default), manifests record
-//! it, and `render::render_frame` dispatches on it.
+//! it, and `render::Renderer` dispatches on it.
 
 use std::fmt;
 use std::str::FromStr;

@@ -143,22 +143,26 @@ pub(crate) fn lattice_hash(x: i64, y: i64, z: i64, seed: u32) -> u64 {
     )
 }
 
+/// The dot product of `d = (x, y, z)` with gradient `h % 12`, one of the 12 edge directions
+/// of a cube (Perlin's improved noise); generic so the GPU tracer's f32 twin shares it.
 #[inline]
-fn grad_dot(h: u64, d: DVec3) -> f64 {
-    // The 12 edge directions of a cube (Perlin's improved noise).
+pub(crate) fn grad_dot<T>(h: u64, [x, y, z]: [T; 3]) -> T
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Neg<Output = T>,
+{
     match h % 12 {
-        0 => d.x + d.y,
-        1 => -d.x + d.y,
-        2 => d.x - d.y,
-        3 => -d.x - d.y,
-        4 => d.x + d.z,
-        5 => -d.x + d.z,
-        6 => d.x - d.z,
-        7 => -d.x - d.z,
-        8 => d.y + d.z,
-        9 => -d.y + d.z,
-        10 => d.y - d.z,
-        _ => -d.y - d.z,
+        0 => x + y,
+        1 => -x + y,
+        2 => x - y,
+        3 => -x - y,
+        4 => x + z,
+        5 => -x + z,
+        6 => x - z,
+        7 => -x - z,
+        8 => y + z,
+        9 => -y + z,
+        10 => y - z,
+        _ => -y - z,
     }
 }
 
@@ -175,7 +179,7 @@ pub fn gradient_noise(p: DVec3, seed: u32) -> f64 {
     let (u, v, w) = (fade(f.x), fade(f.y), fade(f.z));
     let corner = |dx: i64, dy: i64, dz: i64| {
         let h = lattice_hash(ix + dx, iy + dy, iz + dz, seed);
-        grad_dot(h, f - DVec3::new(dx as f64, dy as f64, dz as f64))
+        grad_dot(h, (f - DVec3::new(dx as f64, dy as f64, dz as f64)).to_array())
     };
     let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
     let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), u);

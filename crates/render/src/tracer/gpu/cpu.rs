@@ -1,8 +1,10 @@
 //! The CPU twin of `shaders/tracer.wgsl`, in f32: [`trace_batch`] is the kernel's entry point
 //! `trace_batch` with the same arguments (the frame's parameters, a batch, the environment
-//! buffer, the accumulators, the specialisation), and every WGSL function has a Rust
-//! function of the same name and the same operations in the same order, so GPU and twin
-//! agree to rounding (`tests/tracer_gpu.rs` holds them to it per pixel). It is also the
+//! buffer, the accumulators, the specialisation; [`trace_pixel`] is its per-invocation body),
+//! and every WGSL function has a Rust function of the same name and the same operations in
+//! the same order, so GPU and twin agree to rounding, except the 64-bit emulation (`mul64`,
+//! `splitmix64`, `lattice_gradient` and their helpers), where the twin uses u64 itself
+//! ([`crate::tracer::material::lattice_hash`]), and `copysign`, which is `f32::copysign` (`tests/tracer_gpu.rs` holds them to it per pixel). It is also the
 //! reference the kernel's f32 numerics are tested against the f64 tracer with.
 //!
 //! The integrator is the CPU tracer's ([`crate::tracer::integrator`]): the same bounce
@@ -29,7 +31,7 @@ use study::scene::FrameScene;
 use super::params::{Accum, Batch, EnvTables, FrameParams, ParamsError, Specialisation, material_kind};
 use super::sampler32::{pixel_seed, sample_1d_bits, sample_2d_bits, to_unit};
 use crate::io::LinearImage;
-use crate::tracer::material::{NOISE_GAIN, lattice_hash};
+use crate::tracer::material::{NOISE_GAIN, grad_dot, lattice_hash};
 use crate::tracer::sampler::dim;
 
 const PI: f32 = std::f32::consts::PI;
@@ -46,12 +48,16 @@ fn xyz(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
 }
 
-fn dot(a: Vec3, b: Vec3) -> f32 {
+fn cross3(a: Vec3, b: Vec3) -> Vec3 {
+    Vec3::new(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x)
+}
+
+fn dot3(a: Vec3, b: Vec3) -> f32 {
     a.x * b.x + a.y * b.y + a.z * b.z
 }
 
-fn normalize(v: Vec3) -> Vec3 {
-    v / dot(v, v).sqrt()
+fn normalize3(v: Vec3) -> Vec3 {
+    v / dot3(v, v).sqrt()
 }
 
 /// `(sin 2 pi t, cos 2 pi t)`: reduction to the nearest quarter turn, then Taylor
@@ -84,8 +90,8 @@ fn atan_unit(x: f32) -> f32 {
     if reduce { 0.25 * PI + r } else { r }
 }
 
-/// `atan2(y, x)` in [-pi, pi] from [`atan_unit`].
-pub fn atan2(y: f32, x: f32) -> f32 {
+/// `atan2_poly(y, x)` in [-pi, pi] from [`atan_unit`].
+pub fn atan2_poly(y: f32, x: f32) -> f32 {
     let (ax, ay) = (x.abs(), y.abs());
     let hi = ax.max(ay);
     if hi == 0.0 {
@@ -126,13 +132,13 @@ struct Hit {
 fn intersect_sphere(o: Vec3, d: Vec3, centre: Vec3, radius: f32) -> f32 {
     // -1 for no hit. The cancellation-free form of the f64 tracer.
     let f = o - centre;
-    let b = -dot(f, d);
+    let b = -dot3(f, d);
     let v = f + d * b;
-    let disc = radius * radius - dot(v, v);
+    let disc = radius * radius - dot3(v, v);
     if disc.is_nan() || disc < 0.0 {
         return -1.0;
     }
-    let c = dot(f, f) - radius * radius;
+    let c = dot3(f, f) - radius * radius;
     let q = b + disc.sqrt().copysign(b);
     if q == 0.0 {
         return -1.0;
@@ -150,13 +156,13 @@ fn intersect_sphere(o: Vec3, d: Vec3, centre: Vec3, radius: f32) -> f32 {
 
 fn sphere_blocks(o: Vec3, d: Vec3, centre: Vec3, radius: f32) -> bool {
     let f = o - centre;
-    let b = -dot(f, d);
+    let b = -dot3(f, d);
     let v = f + d * b;
-    let disc = radius * radius - dot(v, v);
+    let disc = radius * radius - dot3(v, v);
     if disc.is_nan() || disc < 0.0 {
         return false;
     }
-    let c = dot(f, f) - radius * radius;
+    let c = dot3(f, f) - radius * radius;
     c < 0.0 || b > 0.0
 }
 
@@ -173,7 +179,7 @@ fn intersect(o: Vec3, d: Vec3, skip: u32, s: &SphereAt, floor_height: f32) -> Hi
     let tf = if skip == FLOOR { -1.0 } else { intersect_floor(o, d, floor_height) };
     if ts > 0.0 && (tf <= 0.0 || ts <= tf) {
         let p = o + d * ts;
-        let n = normalize(p - s.centre);
+        let n = normalize3(p - s.centre);
         return Hit { t: ts, point: s.centre + n * s.radius, normal: n, surface: SPHERE };
     }
     if tf > 0.0 {
@@ -194,9 +200,12 @@ fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
     p + n * err
 }
 
+fn is_bad(x: f32) -> bool {
+    (x.to_bits() & 0x7f80_0000) == 0x7f80_0000
+}
+
 fn is_finite3(v: Vec3) -> bool {
-    let bad = |x: f32| (x.to_bits() & 0x7f80_0000) == 0x7f80_0000;
-    !(bad(v.x) || bad(v.y) || bad(v.z))
+    !(is_bad(v.x) || is_bad(v.y) || is_bad(v.z))
 }
 
 // ---- Environment: texel look-up and importance sampling (see `crate::env`). ----
@@ -222,11 +231,18 @@ fn pseudo_angle(a: f32, b: f32) -> f32 {
     if b >= 0.0 { if a >= 0.0 { r } else { 4.0 + r } } else { 2.0 - r }
 }
 
+/// Whether the map direction `m` lies after column edge `j` (`sin(phi - phi_j) >= 0`).
+fn col_after(p: &FrameParams, env: &[u32], m: Vec3, j: u32) -> bool {
+    let s = env_f32(env, p.off_col_edge + 2 * j);
+    let c = env_f32(env, p.off_col_edge + 2 * j + 1);
+    m.x * c + m.z * s >= 0.0
+}
+
 /// The texel a finite non-zero world direction falls in: (index, cell x, cell y, sin theta).
 fn texel_of(p: &FrameParams, env: &[u32], d: Vec3) -> (u32, u32, u32, f32) {
     let (rc, rs) = (p.env_rot_cos, p.env_rot_sin);
     let m = Vec3::new(rc * d.x - rs * d.z, d.y, rs * d.x + rc * d.z);
-    let inv_len = 1.0 / dot(m, m).sqrt();
+    let inv_len = 1.0 / dot3(m, m).sqrt();
     let cos_theta = (m.y * inv_len).clamp(-1.0, 1.0);
     let sin_theta = (m.x * m.x + m.z * m.z).sqrt() * inv_len;
     let (w, h) = (p.env_width, p.env_height);
@@ -242,15 +258,10 @@ fn texel_of(p: &FrameParams, env: &[u32], d: Vec3) -> (u32, u32, u32, f32) {
     let bins = 4 * w;
     let k = ((pseudo_angle(m.x, -m.z) * (0.25 * bins as f32)) as u32).min(bins - 1);
     let mut x = env[(p.off_col_bins + k) as usize];
-    let after = |j: u32| {
-        let s = env_f32(env, p.off_col_edge + 2 * j);
-        let c = env_f32(env, p.off_col_edge + 2 * j + 1);
-        m.x * c + m.z * s >= 0.0
-    };
     for _ in 0..4 {
-        if !after(x) {
+        if !col_after(p, env, m, x) {
             x = if x == 0 { w - 1 } else { x - 1 };
-        } else if after(x + 1) {
+        } else if col_after(p, env, m, x + 1) {
             x = if x + 1 == w { 0 } else { x + 1 };
         } else {
             break;
@@ -330,30 +341,13 @@ fn env_sample(p: &FrameParams, env: &[u32], u: [f32; 2]) -> (Vec3, f32, f32, u32
 
 // ---- Materials. ----
 
-fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+fn smooth_step(e0: f32, e1: f32, x: f32) -> f32 {
     let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }
 
 fn fade(t: f32) -> f32 {
     t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
-}
-
-fn grad_dot(h: u32, d: Vec3) -> f32 {
-    match h {
-        0 => d.x + d.y,
-        1 => -d.x + d.y,
-        2 => d.x - d.y,
-        3 => -d.x - d.y,
-        4 => d.x + d.z,
-        5 => -d.x + d.z,
-        6 => d.x - d.z,
-        7 => -d.x - d.z,
-        8 => d.y + d.z,
-        9 => -d.y + d.z,
-        10 => d.y - d.z,
-        _ => -d.y - d.z,
-    }
 }
 
 fn gradient_noise(q: Vec3, seed: u32) -> f32 {
@@ -363,7 +357,7 @@ fn gradient_noise(q: Vec3, seed: u32) -> f32 {
     let (u, v, w) = (fade(f.x), fade(f.y), fade(f.z));
     let corner = |dx: i32, dy: i32, dz: i32| {
         let h = lattice_hash(i64::from(ix + dx), i64::from(iy + dy), i64::from(iz + dz), seed);
-        grad_dot((h % 12) as u32, f - Vec3::new(dx as f32, dy as f32, dz as f32))
+        grad_dot(h, (f - Vec3::new(dx as f32, dy as f32, dz as f32)).to_array())
     };
     let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
     let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), u);
@@ -380,7 +374,7 @@ fn filtered_noise(q: Vec3, p: &FrameParams, footprint: f32) -> f32 {
     let mut amp = 1.0;
     for k in 0..p.octaves {
         norm += amp;
-        let w = 1.0 - smoothstep(0.25, 0.5, freq * footprint);
+        let w = 1.0 - smooth_step(0.25, 0.5, freq * footprint);
         if w > 0.0 {
             sum += amp * w * gradient_noise(q * freq, p.noise_seed.wrapping_add(k.wrapping_mul(0x9e37_79b9)));
         }
@@ -394,9 +388,9 @@ fn filtered_noise(q: Vec3, p: &FrameParams, footprint: f32) -> f32 {
 fn texture(p: &FrameParams, spec: &Specialisation, local: Vec3, footprint: f32) -> Vec3 {
     let (a, b) = (xyz(p.albedo_a), xyz(p.albedo_b));
     if spec.material == material_kind::CHECKER {
-        let lon = atan2(local.z, local.x);
+        let lon = atan2_poly(local.z, local.x);
         let y = local.y.clamp(-1.0, 1.0);
-        let lat = atan2(y, (1.0 - y * y).max(0.0).sqrt());
+        let lat = atan2_poly(y, (1.0 - y * y).max(0.0).sqrt());
         let u = (lon / TAU + 0.5) * p.albedo_a[3];
         let v = (lat / PI + 0.5) * p.albedo_b[3];
         return if ((u.floor() as i32).wrapping_add(v.floor() as i32) & 1) == 0 { a } else { b };
@@ -413,9 +407,9 @@ fn to_object(p: &FrameParams, spec: &Specialisation, s: &SphereAt, v: Vec3) -> V
     if spec.time_sampling {
         let k = xyz(p.spin);
         let (sn, cs) = s.spin_sc;
-        r = v * cs + k.cross(v) * sn + k * (dot(k, v) * (1.0 - cs));
+        r = v * cs + cross3(k, v) * sn + k * (dot3(k, v) * (1.0 - cs));
     }
-    Vec3::new(dot(xyz(p.w2o_row0), r), dot(xyz(p.w2o_row1), r), dot(xyz(p.w2o_row2), r))
+    Vec3::new(dot3(xyz(p.w2o_row0), r), dot3(xyz(p.w2o_row1), r), dot3(xyz(p.w2o_row2), r))
 }
 
 fn surface_albedo(p: &FrameParams, spec: &Specialisation, s: &SphereAt, hit: &Hit, footprint: f32, dir: Vec3) -> Vec3 {
@@ -426,7 +420,7 @@ fn surface_albedo(p: &FrameParams, spec: &Specialisation, s: &SphereAt, hit: &Hi
         return xyz(p.albedo_a);
     }
     let local = to_object(p, spec, s, (hit.point - s.centre) / s.radius);
-    let cos = dot(hit.normal, dir).abs().max(0.05);
+    let cos = dot3(hit.normal, dir).abs().max(0.05);
     texture(p, spec, local, footprint / (s.radius * cos.sqrt()))
 }
 
@@ -492,7 +486,7 @@ fn radiance(
         let u_light = sample_2d(seed, index, base + dim::LIGHT);
         let u_bsdf = sample_2d(seed, index, base + dim::BSDF);
         let mut leave_skip = hit.surface;
-        if dot(hit.normal, d) > 0.0 {
+        if dot3(hit.normal, d) > 0.0 {
             hit.normal = -hit.normal;
             if hit.surface == SPHERE {
                 leave_skip = NONE;
@@ -502,7 +496,7 @@ fn radiance(
         let albedo = surface_albedo(p, spec, s, &hit, footprint, d);
         let (ld, density, jacobian, texel) = env_sample(p, env, u_light);
         if density > 0.0 {
-            let cos = dot(hit.normal, ld);
+            let cos = dot3(hit.normal, ld);
             if cos > 0.0 {
                 let so = offset_origin(hit.point, hit.normal);
                 if !occluded(so, ld, leave_skip, s, floor_h) {
@@ -574,7 +568,7 @@ pub fn trace_pixel(
     for i in 0..batch.count {
         let index = batch.first_sample + i;
         let u = sample_2d(seed, index, dim::PIXEL);
-        let dir = normalize(corner + sx * (x as f32 + u[0]) + sy * (y as f32 + u[1]));
+        let dir = normalize3(corner + sx * (x as f32 + u[0]) + sy * (y as f32 + u[1]));
         let t = if spec.time_sampling { to_unit(sample_1d_bits(seed, index, dim::TIME)) } else { 0.0 };
         let s = sphere_at(p, spec, t);
         let l = radiance(p, spec, env, &s, seed, index, dir);
@@ -640,12 +634,12 @@ mod tests {
             assert!((f64::from(s) - es).abs() < 4e-7 && (f64::from(c) - ec).abs() < 4e-7, "{t}");
             for j in [-3.0f32, -0.5, 0.0, 0.25, 1.0, 7.0] {
                 let (y, x) = (t, j * 0.37 + 0.01);
-                let a = atan2(y, x);
+                let a = atan2_poly(y, x);
                 let e = f64::from(y).atan2(f64::from(x));
-                assert!((f64::from(a) - e).abs() < 5e-7, "atan2({y}, {x}) = {a}, expected {e}");
+                assert!((f64::from(a) - e).abs() < 5e-7, "atan2_poly({y}, {x}) = {a}, expected {e}");
             }
         }
-        assert_eq!(atan2(0.0, 0.0), 0.0);
-        assert!((atan2(1.0, 0.0) - 0.5 * PI).abs() < 1e-7 && (atan2(0.0, -1.0) - PI).abs() < 1e-7);
+        assert_eq!(atan2_poly(0.0, 0.0), 0.0);
+        assert!((atan2_poly(1.0, 0.0) - 0.5 * PI).abs() < 1e-7 && (atan2_poly(0.0, -1.0) - PI).abs() < 1e-7);
     }
 }

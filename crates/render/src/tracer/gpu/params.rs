@@ -378,6 +378,25 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_path_that_wraps_twice_in_one_exposure_is_refused_by_name() {
+        let design = study::design::Design::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
+        )
+        .unwrap();
+        let mut scene = design.frame_scene(&"M3-S3-T5-A1".parse().unwrap(), 10).unwrap();
+        let env = EnvTables::new(&EnvironmentMap::from_lighting(&scene.lighting).unwrap());
+        assert!(FrameParams::new(&scene, &scene.views[0], &env).is_ok());
+        scene.sphere.wrap_length = Some(0.01);
+        let e = FrameParams::new(&scene, &scene.views[0], &env).unwrap_err();
+        assert!(matches!(e, ParamsError::WrapsTwice { .. }), "{e}");
+        let text = e.to_string();
+        assert!(
+            text.contains("more than its path's wrap length 0.01 m") && text.contains("one wrap per exposure"),
+            "{text}"
+        );
+    }
+
+    #[test]
     fn the_struct_is_a_whole_number_of_vec4s() {
         assert_eq!(std::mem::size_of::<FrameParams>() % 16, 0);
         assert_eq!(std::mem::size_of::<FrameParams>(), 14 * 16 + 28 * 4);
