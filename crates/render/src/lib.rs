@@ -7,6 +7,7 @@
 
 pub mod device;
 pub mod env;
+pub mod filters;
 pub mod io;
 pub mod method;
 pub mod numeric;

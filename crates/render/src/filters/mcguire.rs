@@ -1,0 +1,97 @@
+//! McGuire et al. 2012's gather, the twin of `shaders/filters/mcguire.wgsl`: each pixel
+//! takes N jittered samples along its tile neighbourhood's dominant (NeighborMax) velocity
+//! and weights them by the three cases of the paper: a sample in front blurring over the
+//! pixel (its cone), the pixel's own blur revealing what is behind it (the pixel's cone),
+//! and both moving (the product of cylinders, twice).
+
+use super::common::{
+    HALF_PIXEL, PassParams, cone, cylinder, dot2, hash_jitter, index, is_bad3, length2, offset_pixel,
+    soft_depth_compare, tile_index,
+};
+use super::{FilterError, GBuffer, McGuireParams, check_gbuffer, tiles};
+
+/// The gather of pixel (x, y): `color`, `depth` are the G-buffer's, `velocity` the encoded
+/// one and `neighbor_max` the plain NeighborMax.
+pub fn mcguire_gather_one(
+    p: &PassParams,
+    color: &[[f32; 3]],
+    depth: &[f32],
+    velocity: &[[f32; 2]],
+    neighbor_max: &[[f32; 2]],
+    x: u32,
+    y: u32,
+) -> [f32; 3] {
+    let i = index(p, x, y);
+    let cx = color[i];
+    if is_bad3(cx) {
+        return cx;
+    }
+    let vn = neighbor_max[tile_index(p, x / p.tile, y / p.tile)];
+    if length2(vn) <= HALF_PIXEL {
+        return cx;
+    }
+    let zx = depth[i];
+    let rx = length2(velocity[i]).max(HALF_PIXEL);
+    let mut weight = 1.0 / rx;
+    let mut sum = [cx[0] * weight, cx[1] * weight, cx[2] * weight];
+    let j = hash_jitter(x, y, p.seed);
+    let n = p.samples;
+    let nf = n as f32;
+    // The paper skips the sample nearest t = 0: the pixel itself, already in `sum`.
+    let centre = (n - 1) / 2;
+    for s in 0..n {
+        if s == centre && n > 1 {
+            continue;
+        }
+        let t = -1.0 + 2.0 * ((s as f32 + j + 1.0) / (nf + 1.0));
+        let [sx, sy] = offset_pixel(p, x, y, [vn[0] * t, vn[1] * t]);
+        let k = index(p, sx, sy);
+        let cy = color[k];
+        if is_bad3(cy) {
+            continue;
+        }
+        let d = [sx as f32 - x as f32, sy as f32 - y as f32];
+        let dist = dot2(d, d).sqrt();
+        let zy = depth[k];
+        let ry = length2(velocity[k]).max(HALF_PIXEL);
+        let f = soft_depth_compare(zx, zy, p.soft_z_extent);
+        let b = soft_depth_compare(zy, zx, p.soft_z_extent);
+        let a = f * cone(dist, ry) + b * cone(dist, rx) + cylinder(dist, ry) * cylinder(dist, rx) * 2.0;
+        weight += a;
+        sum = [sum[0] + cy[0] * a, sum[1] + cy[1] * a, sum[2] + cy[2] * a];
+    }
+    [sum[0] / weight, sum[1] / weight, sum[2] / weight]
+}
+
+/// Pass `mcguire_gather` over the whole image.
+pub fn mcguire_gather(
+    p: &PassParams,
+    color: &[[f32; 3]],
+    depth: &[f32],
+    velocity: &[[f32; 2]],
+    neighbor_max: &[[f32; 2]],
+    out: &mut [[f32; 3]],
+) {
+    for y in 0..p.height {
+        for x in 0..p.width {
+            out[index(p, x, y)] = mcguire_gather_one(p, color, depth, velocity, neighbor_max, x, y);
+        }
+    }
+}
+
+/// McGuire et al. 2012 on the CPU: every pass's twin in order. Panics on a bad G-buffer or
+/// settings; [`try_mcguire_cpu`] returns the error instead.
+pub fn mcguire_cpu(g: &GBuffer, params: &McGuireParams) -> Vec<[f32; 3]> {
+    try_mcguire_cpu(g, params).unwrap_or_else(|e| panic!("mcguire_cpu: {e}"))
+}
+
+/// McGuire et al. 2012 on the CPU, refusing a bad G-buffer or settings.
+pub fn try_mcguire_cpu(g: &GBuffer, params: &McGuireParams) -> Result<Vec<[f32; 3]>, FilterError> {
+    check_gbuffer(g)?;
+    params.check()?;
+    let p = params.pass_params(g);
+    let t = tiles::run(&p, &g.velocity, false);
+    let mut out = vec![[0.0; 3]; p.pixels()];
+    mcguire_gather(&p, &g.color, &g.depth, &t.velocity, &t.neighbor_max, &mut out);
+    Ok(out)
+}
