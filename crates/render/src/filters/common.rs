@@ -43,13 +43,14 @@ pub struct PassParams {
 }
 
 impl PassParams {
-    /// Parameters with the sizes set and every filter setting zero.
+    /// Parameters with the sizes set and every filter setting zero (no tiles for a zero
+    /// tile size, which the filters refuse).
     pub fn new(width: u32, height: u32, tile: u32, samples: u32, seed: u32) -> PassParams {
         PassParams {
             width,
             height,
-            tiles_x: width.div_ceil(tile),
-            tiles_y: height.div_ceil(tile),
+            tiles_x: if tile == 0 { 0 } else { width.div_ceil(tile) },
+            tiles_y: if tile == 0 { 0 } else { height.div_ceil(tile) },
             tile,
             samples,
             seed,

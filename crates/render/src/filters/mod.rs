@@ -24,10 +24,12 @@
 //! every gather, so it never spreads. A non-finite velocity counts as zero.
 
 pub mod common;
+pub mod gpu;
 pub mod guertin;
 pub mod mcguire;
 pub mod tiles;
 
+pub use gpu::{FilteredImage, GpuFilters};
 pub use guertin::guertin_cpu;
 pub use mcguire::mcguire_cpu;
 

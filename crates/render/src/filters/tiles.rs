@@ -38,11 +38,12 @@ pub fn encode_one(v: [f32; 2], radius: f32) -> [f32; 2] {
     scale2(u, clamped / (lu + VELOCITY_EPSILON / m))
 }
 
-/// Pass `encode_velocity`: [`encode_one`] of every pixel, clamped to the tile size.
-pub fn encode_velocity(p: &PassParams, velocity: &[[f32; 2]], out: &mut [[f32; 2]]) {
+/// Pass `encode_velocity`: [`encode_one`] of every pixel, clamped to the tile size, in
+/// place (the GPU's velocity buffer holds the G-buffer's velocity, then the encoded one).
+pub fn encode_velocity(p: &PassParams, velocity: &mut [[f32; 2]]) {
     let radius = p.tile as f32;
-    for (o, &v) in out.iter_mut().zip(velocity) {
-        *o = encode_one(v, radius);
+    for v in velocity.iter_mut() {
+        *v = encode_one(*v, radius);
     }
 }
 
@@ -185,13 +186,13 @@ pub struct Tiles {
 /// (`guertin`), the plain 3x3 NeighborMax for McGuire et al.
 pub fn run(p: &PassParams, velocity: &[[f32; 2]], guertin: bool) -> Tiles {
     let mut t = Tiles {
-        velocity: vec![[0.0; 2]; p.pixels()],
+        velocity: velocity.to_vec(),
         rows: vec![[0.0; 2]; p.tiles_x as usize * p.height as usize],
         tile_max: vec![[0.0; 2]; p.tiles()],
         neighbor_max: vec![[0.0; 2]; p.tiles()],
         variance: vec![0.0; p.tiles()],
     };
-    encode_velocity(p, velocity, &mut t.velocity);
+    encode_velocity(p, &mut t.velocity);
     tile_max_x(p, &t.velocity, &mut t.rows);
     tile_max_y(p, &t.rows, &mut t.tile_max);
     if guertin {

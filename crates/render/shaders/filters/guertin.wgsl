@@ -1,0 +1,131 @@
+// Guertin et al. 2014's gather, twin of `crates/render/src/filters/guertin.rs`
+// (`guertin_gather_one` is the body of one invocation; the fixes to the paper's pseudocode
+// are listed and argued there). One invocation per pixel.
+
+//! include filters_common
+
+fn stochastic_tile(x: u32, y: u32, u: f32) -> vec2<u32> {
+    let tx = x / params.tile;
+    let ty = y / params.tile;
+    let r = f32(params.tile);
+    let lx = f32(x - tx * params.tile) + 0.5;
+    let ly = f32(y - ty * params.tile) + 0.5;
+    let dx = min(lx, r - lx);
+    let dy = min(ly, r - ly);
+    let sx = select(1i, -1i, lx < r - lx);
+    let sy = select(1i, -1i, ly < r - ly);
+    var d = dy;
+    var step = vec2<i32>(0i, sy);
+    if dx <= dy {
+        d = dx;
+        step = vec2<i32>(sx, 0i);
+    }
+    let prob = clamp(0.5 - params.tau * d / r, 0.0, 0.5);
+    if u >= prob {
+        return vec2<u32>(tx, ty);
+    }
+    let nx = i32(tx) + step.x;
+    let ny = i32(ty) + step.y;
+    if nx < 0i || ny < 0i || nx >= i32(params.tiles_x) || ny >= i32(params.tiles_y) {
+        return vec2<u32>(tx, ty);
+    }
+    return vec2<u32>(u32(nx), u32(ny));
+}
+
+fn variance_at(x: u32, y: u32) -> f32 {
+    let r = f32(params.tile);
+    let u = clamp((f32(x) + 0.5) / r - 0.5, 0.0, f32(params.tiles_x - 1u));
+    let v = clamp((f32(y) + 0.5) / r - 0.5, 0.0, f32(params.tiles_y - 1u));
+    let x0f = floor(u);
+    let y0f = floor(v);
+    let fx = u - x0f;
+    let fy = v - y0f;
+    let x0 = u32(x0f);
+    let y0 = u32(y0f);
+    let x1 = min(x0 + 1u, params.tiles_x - 1u);
+    let y1 = min(y0 + 1u, params.tiles_y - 1u);
+    let a = variance[tile_index(x0, y0)];
+    let b = variance[tile_index(x1, y0)];
+    let c = variance[tile_index(x0, y1)];
+    let d = variance[tile_index(x1, y1)];
+    let top = a + (b - a) * fx;
+    let bottom = c + (d - c) * fx;
+    return top + (bottom - top) * fy;
+}
+
+fn along_centre(i: u32, share: f32) -> bool {
+    return floor(f32(i + 1u) * share) > floor(f32(i) * share);
+}
+
+fn mix_normalize(a: vec2<f32>, b: vec2<f32>, t: f32) -> vec2<f32> {
+    let m = vec2<f32>(a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t);
+    return scale2(m, 1.0 / length2(m));
+}
+
+@compute @workgroup_size(8, 8)
+fn guertin_gather(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= params.width || id.y >= params.height {
+        return;
+    }
+    let x = id.x;
+    let y = id.y;
+    let i = index(x, y);
+    let cp = load_color(i);
+    if is_bad3(cp) {
+        store_color(i, cp);
+        return;
+    }
+    let j = halton_jitter(x, y, params.width, params.seed);
+    let tile = stochastic_tile(x, y, tile_offset_random(x, y, params.seed));
+    let vmax = neighbor_max_tiles[tile_index(tile.x, tile.y)];
+    let rmax = length2(vmax);
+    if rmax <= HALF_PIXEL {
+        store_color(i, cp);
+        return;
+    }
+    let wn = scale2(vmax, 1.0 / rmax);
+    let vc = velocity[i];
+    let lc = length2(vc);
+    var wp = vec2<f32>(-wn.y, wn.x);
+    if dot2(wp, vc) < 0.0 {
+        wp = vec2<f32>(-wp.x, -wp.y);
+    }
+    let rc = max(lc, HALF_PIXEL);
+    let nc = scale2(vc, 1.0 / rc);
+    let wc = mix_normalize(wp, nc, clamp((lc - HALF_PIXEL) / params.gamma, 0.0, 1.0));
+    let zp = depth[i];
+    let nf = f32(params.samples);
+    var total = nf / (params.kappa * rc);
+    var sum = vec3<f32>(cp.x * total, cp.y * total, cp.z * total);
+    var share = 0.5;
+    if params.variance != 0u {
+        share = variance_at(x, y);
+    }
+    let jj = j * params.eta * params.phi / nf;
+    for (var s = 0u; s < params.samples; s++) {
+        let t = -1.0 + 2.0 * ((f32(s) + jj + 1.0) / (nf + 1.0));
+        let d = select(wn, wc, along_centre(s, share));
+        let tt = t * rmax;
+        let sp = offset_pixel(x, y, scale2(d, tt));
+        let k = index(sp.x, sp.y);
+        let cs = load_color(k);
+        if is_bad3(cs) {
+            continue;
+        }
+        let vs = velocity[k];
+        let rs = max(length2(vs), HALF_PIXEL);
+        let zs = depth[k];
+        let f = z_compare(zp, zs);
+        let b = z_compare(zs, zp);
+        let wa = abs(dot2(wc, d));
+        let wb = abs(dot2(scale2(vs, 1.0 / rs), d));
+        let o = vec2<f32>(f32(sp.x) - f32(x), f32(sp.y) - f32(y));
+        let dist = sqrt(dot2(o, o));
+        var w = f * cone(dist, rs) * wb;
+        w += b * cone(dist, rc) * wa;
+        w += cylinder(dist, min(rs, rc)) * max(wa, wb) * 2.0;
+        total += w;
+        sum = vec3<f32>(sum.x + cs.x * w, sum.y + cs.y * w, sum.z + cs.z * w);
+    }
+    store_color(i, vec3<f32>(sum.x / total, sum.y / total, sum.z / total));
+}

@@ -1,0 +1,54 @@
+// McGuire et al. 2012's gather, twin of `crates/render/src/filters/mcguire.rs`
+// (`mcguire_gather_one` is the body of one invocation). One invocation per pixel.
+
+//! include filters_common
+
+@compute @workgroup_size(8, 8)
+fn mcguire_gather(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= params.width || id.y >= params.height {
+        return;
+    }
+    let x = id.x;
+    let y = id.y;
+    let i = index(x, y);
+    let cx = load_color(i);
+    if is_bad3(cx) {
+        store_color(i, cx);
+        return;
+    }
+    let vn = neighbor_max_tiles[tile_index(x / params.tile, y / params.tile)];
+    if length2(vn) <= HALF_PIXEL {
+        store_color(i, cx);
+        return;
+    }
+    let zx = depth[i];
+    let rx = max(length2(velocity[i]), HALF_PIXEL);
+    var weight = 1.0 / rx;
+    var sum = vec3<f32>(cx.x * weight, cx.y * weight, cx.z * weight);
+    let j = hash_jitter(x, y, params.seed);
+    let n = params.samples;
+    let nf = f32(n);
+    let centre = (n - 1u) / 2u;
+    for (var s = 0u; s < n; s++) {
+        if s == centre && n > 1u {
+            continue;
+        }
+        let t = -1.0 + 2.0 * ((f32(s) + j + 1.0) / (nf + 1.0));
+        let sp = offset_pixel(x, y, vec2<f32>(vn.x * t, vn.y * t));
+        let k = index(sp.x, sp.y);
+        let cy = load_color(k);
+        if is_bad3(cy) {
+            continue;
+        }
+        let d = vec2<f32>(f32(sp.x) - f32(x), f32(sp.y) - f32(y));
+        let dist = sqrt(dot2(d, d));
+        let zy = depth[k];
+        let ry = max(length2(velocity[k]), HALF_PIXEL);
+        let f = soft_depth_compare(zx, zy, params.soft_z_extent);
+        let b = soft_depth_compare(zy, zx, params.soft_z_extent);
+        let a = f * cone(dist, ry) + b * cone(dist, rx) + cylinder(dist, ry) * cylinder(dist, rx) * 2.0;
+        weight += a;
+        sum = vec3<f32>(sum.x + cy.x * a, sum.y + cy.y * a, sum.z + cy.z * a);
+    }
+    store_color(i, vec3<f32>(sum.x / weight, sum.y / weight, sum.z / weight));
+}
