@@ -331,6 +331,26 @@ fn opposite_velocities_meeting_at_a_tile_border_blur_each_side_along_its_own_mot
 }
 
 #[test]
+fn a_pixel_moving_against_the_dominant_velocity_keeps_non_negative_weights() {
+    // A near band (0.9, x in 40..56) moves left at 20 px per exposure over a still background
+    // (0.2); a nearer band (0.5, x in 72..80) moves right at 32 px, which makes the
+    // neighbourhood's dominant velocity point against the first band's own. The first band's
+    // blur direction is its own motion, antiparallel to the dominant one: with signed
+    // direction cosines (the pseudocode's) its samples of the background along the dominant
+    // direction would get negative weights. Every output stays between the input's extremes.
+    let g = gbuffer(96, 32, |x, _| match x {
+        40..56 => ([0.9; 3], 2.0, [-20.0, 0.0]),
+        72..80 => ([0.5; 3], 1.0, [32.0, 0.0]),
+        _ => ([0.2; 3], 10.0, [0.0, 0.0]),
+    });
+    for (name, out) in both(&g, Some(16), None) {
+        for (i, o) in out.iter().enumerate() {
+            assert!(o[0] >= 0.2 - 1e-6 && o[0] <= 0.9 + 1e-6, "{name} ({}, {}): {o:?}", i % 96, i / 96);
+        }
+    }
+}
+
+#[test]
 fn a_moving_square_blurs_into_a_linear_coverage_ramp() {
     // A square moving v = 16 px per exposure over a still background: the exact image has, in
     // each row, coverage ramping linearly over 16 px centred on each vertical edge of the
