@@ -18,8 +18,15 @@ struct Params {
     eta: f32,
     gamma: f32,
     phi: f32,
+    // Reciprocals computed on the host (see `PassParams::inv_samples_plus_one`).
+    inv_samples_plus_one: f32,
+    inv_tile: f32,
+    inv_soft_z_extent: f32,
+    inv_gamma: f32,
+    jitter_scale: f32,
     pad0: u32,
     pad1: u32,
+    pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -77,8 +84,8 @@ fn cylinder(dist: f32, radius: f32) -> f32 {
 }
 
 // 1 where zb is in front of or level with za (positive depths), 0 `extent` behind.
-fn soft_depth_compare(za: f32, zb: f32, extent: f32) -> f32 {
-    return clamp(1.0 - (zb - za) / extent, 0.0, 1.0);
+fn soft_depth_compare(za: f32, zb: f32, inv_extent: f32) -> f32 {
+    return clamp(1.0 - (zb - za) * inv_extent, 0.0, 1.0);
 }
 
 // Guertin et al.'s relative comparison, the sign fixed for positive depths.

@@ -20,7 +20,7 @@ fn stochastic_tile(x: u32, y: u32, u: f32) -> vec2<u32> {
         d = dx;
         step = vec2<i32>(sx, 0i);
     }
-    let prob = clamp(0.5 - params.tau * d / r, 0.0, 0.5);
+    let prob = clamp(0.5 - params.tau * d * params.inv_tile, 0.0, 0.5);
     if u >= prob {
         return vec2<u32>(tx, ty);
     }
@@ -33,9 +33,8 @@ fn stochastic_tile(x: u32, y: u32, u: f32) -> vec2<u32> {
 }
 
 fn variance_at(x: u32, y: u32) -> f32 {
-    let r = f32(params.tile);
-    let u = clamp((f32(x) + 0.5) / r - 0.5, 0.0, f32(params.tiles_x - 1u));
-    let v = clamp((f32(y) + 0.5) / r - 0.5, 0.0, f32(params.tiles_y - 1u));
+    let u = clamp((f32(x) + 0.5) * params.inv_tile - 0.5, 0.0, f32(params.tiles_x - 1u));
+    let v = clamp((f32(y) + 0.5) * params.inv_tile - 0.5, 0.0, f32(params.tiles_y - 1u));
     let x0f = floor(u);
     let y0f = floor(v);
     let fx = u - x0f;
@@ -92,7 +91,7 @@ fn guertin_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let rc = max(lc, HALF_PIXEL);
     let nc = scale2(vc, 1.0 / rc);
-    let wc = mix_normalize(wp, nc, clamp((lc - HALF_PIXEL) / params.gamma, 0.0, 1.0));
+    let wc = mix_normalize(wp, nc, clamp((lc - HALF_PIXEL) * params.inv_gamma, 0.0, 1.0));
     let zp = depth[i];
     let nf = f32(params.samples);
     var total = nf / (params.kappa * rc);
@@ -101,9 +100,10 @@ fn guertin_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     if params.variance != 0u {
         share = variance_at(x, y);
     }
-    let jj = j * params.eta * params.phi / nf;
+    let jj = j * params.jitter_scale;
     for (var s = 0u; s < params.samples; s++) {
-        let t = -1.0 + 2.0 * ((f32(s) + jj + 1.0) / (nf + 1.0));
+        // `s + 1` in integers (see the twin).
+        let t = -1.0 + 2.0 * ((f32(s + 1u) + jj) * params.inv_samples_plus_one);
         let d = select(wn, wc, along_centre(s, share));
         let tt = t * rmax;
         let sp = offset_pixel(x, y, scale2(d, tt));

@@ -27,13 +27,13 @@ fn mcguire_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     var sum = vec3<f32>(cx.x * weight, cx.y * weight, cx.z * weight);
     let j = hash_jitter(x, y, params.seed);
     let n = params.samples;
-    let nf = f32(n);
     let centre = (n - 1u) / 2u;
     for (var s = 0u; s < n; s++) {
         if s == centre && n > 1u {
             continue;
         }
-        let t = -1.0 + 2.0 * ((f32(s) + j + 1.0) / (nf + 1.0));
+        // `s + 1` in integers (see the twin).
+        let t = -1.0 + 2.0 * ((f32(s + 1u) + j) * params.inv_samples_plus_one);
         let sp = offset_pixel(x, y, vec2<f32>(vn.x * t, vn.y * t));
         let k = index(sp.x, sp.y);
         let cy = load_color(k);
@@ -44,8 +44,8 @@ fn mcguire_gather(@builtin(global_invocation_id) id: vec3<u32>) {
         let dist = sqrt(dot2(d, d));
         let zy = depth[k];
         let ry = max(length2(velocity[k]), HALF_PIXEL);
-        let f = soft_depth_compare(zx, zy, params.soft_z_extent);
-        let b = soft_depth_compare(zy, zx, params.soft_z_extent);
+        let f = soft_depth_compare(zx, zy, params.inv_soft_z_extent);
+        let b = soft_depth_compare(zy, zx, params.inv_soft_z_extent);
         let a = f * cone(dist, ry) + b * cone(dist, rx) + cylinder(dist, ry) * cylinder(dist, rx) * 2.0;
         weight += a;
         sum = vec3<f32>(sum.x + cy.x * a, sum.y + cy.y * a, sum.z + cy.z * a);

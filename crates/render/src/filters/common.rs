@@ -4,7 +4,7 @@
 //! multiply-adds, no built-ins whose precision WGSL leaves open: `length`, `normalize`,
 //! `smoothstep` and `mix` are spelt out).
 
-/// What every pass reads: the WGSL struct `Params` (uniform, 16 words).
+/// What every pass reads: the WGSL struct `Params` (uniform, 24 words).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct PassParams {
@@ -36,10 +36,26 @@ pub struct PassParams {
     pub gamma: f32,
     /// Guertin: phi.
     pub phi: f32,
-    /// Unused (16-byte size).
+    /// 1 / (samples + 1), computed once on the host. Every quotient by a parameter is a
+    /// product with its reciprocal from here, on both sides: a shader compiler may replace a
+    /// division by a loop-invariant value by a product with its reciprocal, which rounds
+    /// differently, and a last-bit difference in a sample's position can move it to the next
+    /// pixel.
+    pub inv_samples_plus_one: f32,
+    /// 1 / tile.
+    pub inv_tile: f32,
+    /// McGuire: 1 / soft_z_extent.
+    pub inv_soft_z_extent: f32,
+    /// Guertin: 1 / gamma.
+    pub inv_gamma: f32,
+    /// Guertin: the jitter's scale eta phi / N.
+    pub jitter_scale: f32,
+    /// Unused (a 16-byte multiple).
     pub pad0: u32,
     /// Unused.
     pub pad1: u32,
+    /// Unused.
+    pub pad2: u32,
 }
 
 impl PassParams {
@@ -61,8 +77,14 @@ impl PassParams {
             eta: 0.0,
             gamma: 0.0,
             phi: 0.0,
+            inv_samples_plus_one: 1.0 / (samples as f32 + 1.0),
+            inv_tile: if tile == 0 { 0.0 } else { 1.0 / tile as f32 },
+            inv_soft_z_extent: 0.0,
+            inv_gamma: 0.0,
+            jitter_scale: 0.0,
             pad0: 0,
             pad1: 0,
+            pad2: 0,
         }
     }
 
@@ -129,13 +151,14 @@ pub fn cylinder(dist: f32, radius: f32) -> f32 {
 }
 
 /// McGuire et al. 2012's soft depth comparison for positive depths: 1 where `zb` is in front
-/// of or level with `za`, falling to 0 where `zb` is `extent` or more behind it.
+/// of or level with `za`, falling to 0 where `zb` is `extent` (`1 / inv_extent`) or more
+/// behind it.
 ///
 /// The paper writes `clamp(1 - (za - zb) / extent)` for its negative (OpenGL camera-space)
 /// z; with the positive depths of [`super::GBuffer`] the difference changes sign, so that
 /// `soft_depth_compare(Z[X], Z[Y])` is still "Y is in front of X".
-pub fn soft_depth_compare(za: f32, zb: f32, extent: f32) -> f32 {
-    (1.0 - (zb - za) / extent).clamp(0.0, 1.0)
+pub fn soft_depth_compare(za: f32, zb: f32, inv_extent: f32) -> f32 {
+    (1.0 - (zb - za) * inv_extent).clamp(0.0, 1.0)
 }
 
 /// The smallest depth the relative comparison divides by (a micrometre): depth zero is a
@@ -222,9 +245,9 @@ mod tests {
 
     #[test]
     fn depth_comparisons_say_in_front_for_nearer_or_equal_samples() {
-        assert_eq!(soft_depth_compare(10.0, 5.0, 0.1), 1.0);
-        assert_eq!(soft_depth_compare(5.0, 10.0, 0.1), 0.0);
-        assert!((soft_depth_compare(5.0, 5.05, 0.1) - 0.5).abs() < 1e-5);
+        assert_eq!(soft_depth_compare(10.0, 5.0, 10.0), 1.0);
+        assert_eq!(soft_depth_compare(5.0, 10.0, 10.0), 0.0);
+        assert!((soft_depth_compare(5.0, 5.05, 10.0) - 0.5).abs() < 1e-5);
         assert_eq!(z_compare(10.0, 5.0), 1.0);
         assert_eq!(z_compare(5.0, 10.0), 0.0);
         assert_eq!(z_compare(10.0, 15.0), 0.5);

@@ -58,7 +58,7 @@ pub fn stochastic_tile(p: &PassParams, x: u32, y: u32, u: f32) -> [u32; 2] {
     let sx: i32 = if lx < r - lx { -1 } else { 1 };
     let sy: i32 = if ly < r - ly { -1 } else { 1 };
     let (d, step) = if dx <= dy { (dx, [sx, 0]) } else { (dy, [0, sy]) };
-    let prob = (0.5 - p.tau * d / r).clamp(0.0, 0.5);
+    let prob = (0.5 - p.tau * d * p.inv_tile).clamp(0.0, 0.5);
     if u >= prob {
         return [tx, ty];
     }
@@ -73,9 +73,8 @@ pub fn stochastic_tile(p: &PassParams, x: u32, y: u32, u: f32) -> [u32; 2] {
 /// The tile variance at pixel (x, y), bilinearly interpolated between tile centres (section
 /// 5: nearest look-ups left tile borders visible), clamped at the image's edge tiles.
 pub fn variance_at(p: &PassParams, variance: &[f32], x: u32, y: u32) -> f32 {
-    let r = p.tile as f32;
-    let u = ((x as f32 + 0.5) / r - 0.5).clamp(0.0, (p.tiles_x - 1) as f32);
-    let v = ((y as f32 + 0.5) / r - 0.5).clamp(0.0, (p.tiles_y - 1) as f32);
+    let u = ((x as f32 + 0.5) * p.inv_tile - 0.5).clamp(0.0, (p.tiles_x - 1) as f32);
+    let v = ((y as f32 + 0.5) * p.inv_tile - 0.5).clamp(0.0, (p.tiles_y - 1) as f32);
     let x0 = u.floor();
     let y0 = v.floor();
     let fx = u - x0;
@@ -142,15 +141,18 @@ pub fn guertin_gather_one(
     // Fixes 2 and 5: norm(v_c) with the length at least 1/2, the blend clamped.
     let rc = lc.max(HALF_PIXEL);
     let nc = scale2(vc, 1.0 / rc);
-    let wc = mix_normalize(wp, nc, ((lc - HALF_PIXEL) / p.gamma).clamp(0.0, 1.0));
+    let wc = mix_normalize(wp, nc, ((lc - HALF_PIXEL) * p.inv_gamma).clamp(0.0, 1.0));
     let zp = depth[i];
     let nf = p.samples as f32;
     let mut total = nf / (p.kappa * rc);
     let mut sum = [cp[0] * total, cp[1] * total, cp[2] * total];
     let share = if p.variance != 0 { variance_at(p, variance, x, y) } else { 0.5 };
-    let jj = j * p.eta * p.phi / nf;
+    let jj = j * p.jitter_scale;
     for s in 0..p.samples {
-        let t = -1.0 + 2.0 * ((s as f32 + jj + 1.0) / (nf + 1.0));
+        // `s + 1` in integers, then one float addition: a compiler may reassociate
+        // `s + jj + 1` (Mesa's does), and at 16 + jj one last-bit step moves a sample by
+        // 2e-6 px, enough to cross to the next pixel now and then.
+        let t = -1.0 + 2.0 * (((s + 1) as f32 + jj) * p.inv_samples_plus_one);
         // Fix 3: unit directions out to |v_max|.
         let d = if along_centre(s, share) { wc } else { wn };
         let tt = t * rmax;

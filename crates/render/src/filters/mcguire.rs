@@ -36,14 +36,16 @@ pub fn mcguire_gather_one(
     let mut sum = [cx[0] * weight, cx[1] * weight, cx[2] * weight];
     let j = hash_jitter(x, y, p.seed);
     let n = p.samples;
-    let nf = n as f32;
     // The paper skips the sample nearest t = 0: the pixel itself, already in `sum`.
     let centre = (n - 1) / 2;
     for s in 0..n {
         if s == centre && n > 1 {
             continue;
         }
-        let t = -1.0 + 2.0 * ((s as f32 + j + 1.0) / (nf + 1.0));
+        // `s + 1` in integers, then one float addition: a compiler may reassociate
+        // `s + j + 1` (Mesa's does), and at 16 + j one last-bit step moves a sample by
+        // 2e-6 px, enough to cross to the next pixel now and then.
+        let t = -1.0 + 2.0 * (((s + 1) as f32 + j) * p.inv_samples_plus_one);
         let [sx, sy] = offset_pixel(p, x, y, [vn[0] * t, vn[1] * t]);
         let k = index(p, sx, sy);
         let cy = color[k];
@@ -54,8 +56,8 @@ pub fn mcguire_gather_one(
         let dist = dot2(d, d).sqrt();
         let zy = depth[k];
         let ry = length2(velocity[k]).max(HALF_PIXEL);
-        let f = soft_depth_compare(zx, zy, p.soft_z_extent);
-        let b = soft_depth_compare(zy, zx, p.soft_z_extent);
+        let f = soft_depth_compare(zx, zy, p.inv_soft_z_extent);
+        let b = soft_depth_compare(zy, zx, p.inv_soft_z_extent);
         let a = f * cone(dist, ry) + b * cone(dist, rx) + cylinder(dist, ry) * cylinder(dist, rx) * 2.0;
         weight += a;
         sum = [sum[0] + cy[0] * a, sum[1] + cy[1] * a, sum[2] + cy[2] * a];

@@ -212,6 +212,7 @@ impl McGuireParams {
     pub fn pass_params(&self, g: &GBuffer) -> common::PassParams {
         let mut p = common::PassParams::new(g.width, g.height, self.tile, self.samples, self.seed);
         p.soft_z_extent = self.soft_z_extent;
+        p.inv_soft_z_extent = 1.0 / self.soft_z_extent;
         p
     }
 }
@@ -237,6 +238,8 @@ impl GuertinParams {
         p.gamma = self.gamma;
         p.phi = self.phi;
         p.variance = u32::from(self.tile_variance);
+        p.inv_gamma = 1.0 / self.gamma;
+        p.jitter_scale = self.eta * self.phi / self.samples as f32;
         p
     }
 }
