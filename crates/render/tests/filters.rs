@@ -155,6 +155,45 @@ fn equal_depths_and_zero_depths_compare_as_level() {
 }
 
 #[test]
+fn objects_leaving_through_the_image_border_blur_only_inward() {
+    // Two bands fill the left and right 20 columns (colours 1 and 1/2, in front of a still
+    // background 0) and move out through the side borders, in the second image also through
+    // the top and bottom. Samples beyond an edge read the edge pixel (clamp to edge), so the
+    // border columns keep their band's colour; each band's inner edge ramps over its blur;
+    // nothing changes beyond the blur, and nothing from one side reaches the other.
+    for vy in [0.0f32, 12.0] {
+        let g = gbuffer(64, 36, |x, y| {
+            let vy = if y < 18 { -vy } else { vy };
+            match x {
+                0..20 => ([1.0; 3], 2.0, [-16.0, vy]),
+                44..64 => ([0.5; 3], 2.0, [16.0, vy]),
+                _ => ([0.0; 3], 10.0, [0.0, 0.0]),
+            }
+        });
+        for (name, out) in both(&g, Some(16), None) {
+            for y in 0..36u32 {
+                for x in 0..64u32 {
+                    let o = out[(y * 64 + x) as usize][0];
+                    assert!(o.is_finite() && (-1e-6..=1.0 + 1e-6).contains(&o), "{name} ({x}, {y}): {o}");
+                    if (30..34).contains(&x) {
+                        assert_eq!(o, 0.0, "{name} ({x}, {y}) lies beyond the blur");
+                    }
+                    if x < 20 - 12 {
+                        assert!((o - 1.0).abs() < 1e-6, "{name} ({x}, {y}): {o} in the left band");
+                    }
+                    if x >= 44 + 12 {
+                        assert!((o - 0.5).abs() < 1e-6, "{name} ({x}, {y}): {o} in the right band");
+                    }
+                }
+            }
+            let row = &out[18 * 64..19 * 64];
+            assert!(row[20][0] > 0.05 && row[19][0] < 0.99, "{name}: no ramp at the left band's inner edge");
+            assert!(row[43][0] > 0.02 && row[44][0] < 0.49, "{name}: no ramp at the right band's inner edge");
+        }
+    }
+}
+
+#[test]
 fn sizes_that_are_not_multiples_of_the_tile_are_covered_to_the_last_pixel() {
     for (w, h, r) in [(640u32, 360u32, 40u32), (640, 360, 32), (1280, 720, 40), (1280, 720, 32), (67, 37, 40)] {
         // A moving pixel alone in the last (possibly partial) tile is that tile's TileMax.
