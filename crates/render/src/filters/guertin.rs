@@ -13,7 +13,8 @@
 //!    for a still pixel is the pixel itself (the "wasted" samples the text replaces by the
 //!    perpendicular) and is inconsistent with the distance `T = t |v_max|` the weights use.
 //!    Both sample sets lie along unit directions (w_n = norm(v_max), and the centre direction
-//!    w_c) out to `|v_max|`, so every sample is at distance |T|.
+//!    w_c) out to `|v_max|`, so every sample is |T| from the pixel before rounding (the
+//!    weights then use the distance after rounding, 7).
 //! 4. The velocity-aware factors use unit directions and absolute values,
 //!    `wA = |w_c . d|`, `wB = |norm(v_s) . d|`: the pseudocode dots with the unscaled `d`
 //!    (a length, not a direction cosine) and with signs, but a blur spans `+-v`, so a
@@ -34,6 +35,14 @@
 //! 8. The jitter `j eta phi / N` exceeds one sample spacing for N < eta phi (about 26): kept
 //!    as the paper states; samples then pushed past |t| = 1 lie beyond every blur radius and
 //!    get (near) zero weight.
+//!
+//! As the text says (section 4.3), the sample nearest the pixel is not skipped (McGuire et
+//! al. skip it), and the centre weight is `N / (kappa |v_c|)`. With
+//! [`GuertinParams::tile_variance`] the samples are split by equation 2's variance (of the
+//! NeighborMax directions, bilinearly interpolated as section 5 says), `upsilon N` along
+//! the centre direction, evenly interleaved ([`along_centre`]); otherwise half and half (the
+//! paper's setting for its results). The paper's second output, a luminance checkerboard to
+//! steer a following FXAA pass (section 4.5), is not produced: there is no FXAA pass here.
 
 use super::common::{
     HALF_PIXEL, PassParams, cone, cylinder, dot2, halton_jitter, index, is_bad3, length2, offset_pixel, scale2,
