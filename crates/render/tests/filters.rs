@@ -225,13 +225,17 @@ fn sizes_that_are_not_multiples_of_the_tile_are_covered_to_the_last_pixel() {
 }
 
 #[test]
-fn non_finite_colours_stay_in_their_pixel() {
+fn non_finite_colours_and_depths_stay_in_their_pixel() {
     let (w, h) = (64u32, 36u32);
     let bad_at = [(20u32, 17u32, f32::NAN), (41, 9, f32::INFINITY), (0, 0, f32::NEG_INFINITY)];
+    let bad_depth_at = [(50u32, 30u32, f32::NAN), (10, 25, f32::INFINITY)];
     let spoil = |g: &GBuffer| {
         let mut g = g.clone();
         for &(x, y, v) in &bad_at {
             g.color[(y * w + x) as usize][1] = v;
+        }
+        for &(x, y, z) in &bad_depth_at {
+            g.depth[(y * w + x) as usize] = z;
         }
         g
     };
@@ -244,6 +248,10 @@ fn non_finite_colours_stay_in_their_pixel() {
             if let Some(&(_, _, v)) = bad_at.iter().find(|(x, y, _)| (y * w + x) as usize == i) {
                 // Passed through: NaN stays NaN, an infinity that infinity.
                 assert!(o[1].to_bits() == v.to_bits() || (v.is_nan() && o[1].is_nan()), "{name} {i}: {o:?}");
+                continue;
+            }
+            if bad_depth_at.iter().any(|(x, y, _)| (y * w + x) as usize == i) {
+                assert_eq!(*o, [0.3, 0.6, 0.9], "{name} {i}: a pixel of non-finite depth passes through");
                 continue;
             }
             for k in 0..3 {
@@ -259,7 +267,12 @@ fn non_finite_colours_stay_in_their_pixel() {
         for y in 0..h {
             for x in 0..w {
                 let i = (y * w + x) as usize;
-                let reach = bad_at.iter().map(|&(bx, by, _)| bx.abs_diff(x).max(by.abs_diff(y))).min().unwrap();
+                let reach = bad_at
+                    .iter()
+                    .chain(&bad_depth_at)
+                    .map(|&(bx, by, _)| bx.abs_diff(x).max(by.abs_diff(y)))
+                    .min()
+                    .unwrap();
                 if reach == 0 {
                     continue;
                 }

@@ -201,12 +201,16 @@ fn without_motion_the_gpu_returns_the_input_bit_for_bit() {
 }
 
 #[test]
-fn non_finite_colours_stay_in_their_pixel_on_the_gpu() {
-    let Some(f) = filters("non_finite_colours_stay_in_their_pixel_on_the_gpu") else { return };
+fn non_finite_colours_and_depths_stay_in_their_pixel_on_the_gpu() {
+    let Some(f) = filters("non_finite_colours_and_depths_stay_in_their_pixel_on_the_gpu") else { return };
     let mut g = gbuffer(64, 36, 20.0, 5);
     let bad = [(30usize, 17usize, f32::NAN), (5, 3, f32::INFINITY), (63, 35, f32::NEG_INFINITY)];
     for &(x, y, v) in &bad {
         g.color[y * 64 + x][0] = v;
+    }
+    let bad_depth = [(40usize, 10usize, f32::NAN), (7, 20, f32::INFINITY)];
+    for &(x, y, z) in &bad_depth {
+        g.depth[y * 64 + x] = z;
     }
     let m = McGuireParams { tile: 12, ..McGuireParams::default() };
     let q = GuertinParams { tile: 12, ..GuertinParams::default() };
@@ -217,6 +221,10 @@ fn non_finite_colours_stay_in_their_pixel_on_the_gpu() {
         for (i, (a, b)) in gpu.iter().zip(&cpu).enumerate() {
             if let Some(&(_, _, v)) = bad.iter().find(|(x, y, _)| y * 64 + x == i) {
                 assert!(a[0].to_bits() == v.to_bits() || (v.is_nan() && a[0].is_nan()), "{name} {i}: {a:?}");
+                continue;
+            }
+            if bad_depth.iter().any(|(x, y, _)| y * 64 + x == i) {
+                assert_eq!(a.map(f32::to_bits), g.color[i].map(f32::to_bits), "{name} {i}: passed through");
                 continue;
             }
             assert!(a.iter().all(|c| c.is_finite()), "{name} pixel {i}: {a:?}");

@@ -70,7 +70,7 @@ fn guertin_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let y = id.y;
     let i = index(x, y);
     let cp = load_color(i);
-    if is_bad3(cp) {
+    if is_bad3(cp) || is_bad(depth[i]) {
         store_color(i, cp);
         return;
     }
@@ -109,7 +109,7 @@ fn guertin_gather(@builtin(global_invocation_id) id: vec3<u32>) {
         let sp = offset_pixel(x, y, scale2(d, tt));
         let k = index(sp.x, sp.y);
         let cs = load_color(k);
-        if is_bad3(cs) {
+        if is_bad3(cs) || is_bad(depth[k]) {
             continue;
         }
         let vs = velocity[k];

@@ -12,7 +12,7 @@ fn mcguire_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let y = id.y;
     let i = index(x, y);
     let cx = load_color(i);
-    if is_bad3(cx) {
+    if is_bad3(cx) || is_bad(depth[i]) {
         store_color(i, cx);
         return;
     }
@@ -37,7 +37,7 @@ fn mcguire_gather(@builtin(global_invocation_id) id: vec3<u32>) {
         let sp = offset_pixel(x, y, vec2<f32>(vn.x * t, vn.y * t));
         let k = index(sp.x, sp.y);
         let cy = load_color(k);
-        if is_bad3(cy) {
+        if is_bad3(cy) || is_bad(depth[k]) {
             continue;
         }
         let d = vec2<f32>(f32(sp.x) - f32(x), f32(sp.y) - f32(y));

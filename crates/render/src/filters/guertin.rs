@@ -45,7 +45,7 @@
 //! steer a following FXAA pass (section 4.5), is not produced: there is no FXAA pass here.
 
 use super::common::{
-    HALF_PIXEL, PassParams, cone, cylinder, dot2, halton_jitter, index, is_bad3, length2, offset_pixel, scale2,
+    HALF_PIXEL, PassParams, cone, cylinder, dot2, halton_jitter, index, is_bad, is_bad3, length2, offset_pixel, scale2,
     tile_index, tile_offset_random, z_compare,
 };
 use super::{FilterError, GBuffer, GuertinParams, check_gbuffer, tiles};
@@ -130,7 +130,7 @@ pub fn guertin_gather_one(
 ) -> [f32; 3] {
     let i = index(p, x, y);
     let cp = color[i];
-    if is_bad3(cp) {
+    if is_bad3(cp) || is_bad(depth[i]) {
         return cp;
     }
     let j = halton_jitter(x, y, p.width, p.seed);
@@ -168,7 +168,7 @@ pub fn guertin_gather_one(
         let [sx, sy] = offset_pixel(p, x, y, scale2(d, tt));
         let k = index(p, sx, sy);
         let cs = color[k];
-        if is_bad3(cs) {
+        if is_bad3(cs) || is_bad(depth[k]) {
             continue;
         }
         let vs = velocity[k];

@@ -5,7 +5,7 @@
 //! and both moving (the product of cylinders, twice).
 
 use super::common::{
-    HALF_PIXEL, PassParams, cone, cylinder, dot2, hash_jitter, index, is_bad3, length2, offset_pixel,
+    HALF_PIXEL, PassParams, cone, cylinder, dot2, hash_jitter, index, is_bad, is_bad3, length2, offset_pixel,
     soft_depth_compare, tile_index,
 };
 use super::{FilterError, GBuffer, McGuireParams, check_gbuffer, tiles};
@@ -23,7 +23,7 @@ pub fn mcguire_gather_one(
 ) -> [f32; 3] {
     let i = index(p, x, y);
     let cx = color[i];
-    if is_bad3(cx) {
+    if is_bad3(cx) || is_bad(depth[i]) {
         return cx;
     }
     let vn = neighbor_max[tile_index(p, x / p.tile, y / p.tile)];
@@ -49,7 +49,7 @@ pub fn mcguire_gather_one(
         let [sx, sy] = offset_pixel(p, x, y, [vn[0] * t, vn[1] * t]);
         let k = index(p, sx, sy);
         let cy = color[k];
-        if is_bad3(cy) {
+        if is_bad3(cy) || is_bad(depth[k]) {
             continue;
         }
         let d = [sx as f32 - x as f32, sy as f32 - y as f32];

@@ -19,9 +19,10 @@
 //! `common.wgsl` and [`common`]. The intermediate buffers are f32 (see [`tiles`] for why the
 //! 2014 paper's UINT8 quantisation is not reproduced).
 //!
-//! Non-finite input: a pixel whose colour has a NaN or infinite channel passes through
-//! unchanged (the filter invents no value for it), and as a sample it has zero weight in
-//! every gather, so it never spreads. A non-finite velocity counts as zero.
+//! Non-finite input: a pixel whose colour has a NaN or infinite channel, or whose depth is
+//! NaN or infinite (the sky is [`SKY_DEPTH`], not infinity), passes through unchanged (the
+//! filter invents no value for it), and as a sample it has zero weight in every gather, so
+//! it never spreads. A non-finite velocity counts as zero.
 
 pub mod common;
 pub mod gpu;
@@ -30,8 +31,8 @@ pub mod mcguire;
 pub mod tiles;
 
 pub use gpu::{FilteredImage, GpuFilters};
-pub use guertin::guertin_cpu;
-pub use mcguire::mcguire_cpu;
+pub use guertin::{guertin_cpu, try_guertin_cpu};
+pub use mcguire::{mcguire_cpu, try_mcguire_cpu};
 
 /// The depth of sky pixels: nothing is behind them.
 pub const SKY_DEPTH: f32 = 1.0e6;
