@@ -48,6 +48,8 @@ use super::common::{
     HALF_PIXEL, PassParams, cone, cylinder, dot2, halton_jitter, index, is_bad, is_bad3, length2, offset_pixel, scale2,
     tile_index, tile_offset_random, z_compare,
 };
+use rayon::prelude::*;
+
 use super::{FilterError, GBuffer, GuertinParams, check_gbuffer, tiles};
 
 /// The tile whose NeighborMax pixel (x, y) reads (`soffset` of the paper, section 4.2): its
@@ -191,7 +193,8 @@ pub fn guertin_gather_one(
     [sum[0] / total, sum[1] / total, sum[2] / total]
 }
 
-/// Pass `guertin_gather` over the whole image.
+/// Pass `guertin_gather` over the whole image (rows in parallel; each pixel's result does
+/// not depend on the order).
 pub fn guertin_gather(
     p: &PassParams,
     color: &[[f32; 3]],
@@ -201,11 +204,11 @@ pub fn guertin_gather(
     variance: &[f32],
     out: &mut [[f32; 3]],
 ) {
-    for y in 0..p.height {
-        for x in 0..p.width {
-            out[index(p, x, y)] = guertin_gather_one(p, color, depth, velocity, neighbor_max, variance, x, y);
+    out.par_chunks_mut(p.width as usize).enumerate().for_each(|(y, row)| {
+        for (x, o) in row.iter_mut().enumerate() {
+            *o = guertin_gather_one(p, color, depth, velocity, neighbor_max, variance, x as u32, y as u32);
         }
-    }
+    });
 }
 
 /// Guertin et al. 2014 on the CPU: every pass's twin in order. Panics on a bad G-buffer or

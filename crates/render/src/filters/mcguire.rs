@@ -8,6 +8,8 @@ use super::common::{
     HALF_PIXEL, PassParams, cone, cylinder, dot2, hash_jitter, index, is_bad, is_bad3, length2, offset_pixel,
     soft_depth_compare, tile_index,
 };
+use rayon::prelude::*;
+
 use super::{FilterError, GBuffer, McGuireParams, check_gbuffer, tiles};
 
 /// The gather of pixel (x, y): `color`, `depth` are the G-buffer's, `velocity` the encoded
@@ -65,7 +67,8 @@ pub fn mcguire_gather_one(
     [sum[0] / weight, sum[1] / weight, sum[2] / weight]
 }
 
-/// Pass `mcguire_gather` over the whole image.
+/// Pass `mcguire_gather` over the whole image (rows in parallel; each pixel's result does
+/// not depend on the order).
 pub fn mcguire_gather(
     p: &PassParams,
     color: &[[f32; 3]],
@@ -74,11 +77,11 @@ pub fn mcguire_gather(
     neighbor_max: &[[f32; 2]],
     out: &mut [[f32; 3]],
 ) {
-    for y in 0..p.height {
-        for x in 0..p.width {
-            out[index(p, x, y)] = mcguire_gather_one(p, color, depth, velocity, neighbor_max, x, y);
+    out.par_chunks_mut(p.width as usize).enumerate().for_each(|(y, row)| {
+        for (x, o) in row.iter_mut().enumerate() {
+            *o = mcguire_gather_one(p, color, depth, velocity, neighbor_max, x as u32, y as u32);
         }
-    }
+    });
 }
 
 /// McGuire et al. 2012 on the CPU: every pass's twin in order. Panics on a bad G-buffer or
