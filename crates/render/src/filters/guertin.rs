@@ -227,3 +227,32 @@ pub fn try_guertin_cpu(g: &GBuffer, params: &GuertinParams) -> Result<Vec<[f32; 
     guertin_gather(&p, &g.color, &g.depth, &t.velocity, &t.neighbor_max, &t.variance, &mut out);
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_sample_split_interleaves_the_share_evenly() {
+        let along = |share: f32| (0..35).filter(|&i| along_centre(i, share)).collect::<Vec<u32>>();
+        // Half and half: the pseudocode's odd samples.
+        assert_eq!(along(0.5), (0..35).filter(|i| i % 2 == 1).collect::<Vec<u32>>());
+        assert!(along(0.0).is_empty());
+        assert_eq!(along(1.0).len(), 35);
+        // A quarter: every fourth sample, 8 of 35.
+        assert_eq!(along(0.25), vec![3, 7, 11, 15, 19, 23, 27, 31]);
+    }
+
+    #[test]
+    fn the_variance_is_interpolated_between_tile_centres() {
+        let p = PassParams::new(40, 20, 20, 1, 0);
+        let variance = [0.0, 1.0];
+        // Tile centres at x = 10 and 30 (pixel x's centre is x + 1/2); clamped beyond them.
+        assert_eq!(variance_at(&p, &variance, 9, 0), 0.0);
+        assert_eq!(variance_at(&p, &variance, 0, 0), 0.0);
+        assert_eq!(variance_at(&p, &variance, 30, 0), 1.0);
+        assert_eq!(variance_at(&p, &variance, 39, 19), 1.0);
+        assert!((variance_at(&p, &variance, 19, 7) - 0.475).abs() < 1e-6);
+        assert!((variance_at(&p, &variance, 20, 7) - 0.525).abs() < 1e-6);
+    }
+}

@@ -228,6 +228,23 @@ mod tests {
     }
 
     #[test]
+    fn tile_variance_is_zero_for_one_direction_and_grows_with_disagreement() {
+        let p = PassParams::new(60, 60, 20, 1, 0);
+        let mut out = vec![0.0; 9];
+        // One direction, either sign (the absolute value): no variance.
+        let same: Vec<[f32; 2]> = (0..9).map(|i| if i % 2 == 0 { [3.0, 4.0] } else { [-6.0, -8.0] }).collect();
+        tile_variance(&p, &same, &mut out);
+        assert!(out.iter().all(|&u| u.abs() < 1e-6), "{out:?}");
+        // The centre tile's direction against eight perpendicular neighbours: 1 - 1/9.
+        let mut cross = vec![[0.0f32, 5.0]; 9];
+        cross[4] = [5.0, 0.0];
+        tile_variance(&p, &cross, &mut out);
+        assert!((out[4] - 8.0 / 9.0).abs() < 1e-6, "{out:?}");
+        // A corner tile sees its own three neighbours only: one of four disagrees.
+        assert!((out[0] - 0.25).abs() < 1e-6, "{out:?}");
+    }
+
+    #[test]
     fn off_axis_tiles_count_only_when_they_point_at_the_centre() {
         let p = PassParams::new(60, 60, 20, 1, 0);
         let mut tm = vec![[0.0f32; 2]; 9];
