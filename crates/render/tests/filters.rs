@@ -413,12 +413,10 @@ fn guertin_blurs_a_pixel_along_its_own_motion_where_another_dominates_the_tile()
     // leave them sharp; Guertin et al. sample half along the pixel's own velocity and weight
     // samples by how their velocity follows the sampling direction. Measured mean contrast
     // |out - 1/2| there: McGuire 0.500 (sharp), Guertin 0.133 (the rest is jitter noise).
-    let g =
-        gbuffer(
-            96,
-            64,
-            |x, y| if x < 64 { ([(y % 2) as f32; 3], 5.0, [0.0, 16.0]) } else { ([0.5; 3], 1.0, [24.0, 0.0]) },
-        );
+    let g = gbuffer(96, 64, |x, y| {
+        let stripe = (y % 2) as f32;
+        if x < 64 { ([stripe; 3], 5.0, [0.0, 16.0]) } else { ([0.5; 3], 1.0, [24.0, 0.0]) }
+    });
     let contrast = |out: &[[f32; 3]]| {
         let mut sum = 0.0;
         for y in 16..48u32 {
