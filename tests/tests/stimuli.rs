@@ -206,9 +206,9 @@ fn render_frame_writes_png_and_exr() {
     assert!(stderr(&o).contains(".exr or .png"), "{}", stderr(&o));
     // A method the design model knows but this build cannot render, and one it does not know.
     let f = dir.path().join("g.png");
-    let o = run(&["render-frame", "--design", &d, "M2-S2-T3-A1", "--method", "accum", "--out", f.to_str().unwrap()]);
+    let o = run(&["render-frame", "--design", &d, "M2-S2-T3-A1", "--method", "analytic", "--out", f.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("--method accum: rendering method `accum` is not available"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--method analytic: rendering method `analytic` is not available"), "{}", stderr(&o));
     let o = run(&["render-frame", "--design", &d, "M2-S2-T3-A1", "--method", "raster", "--out", f.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("unknown rendering method `raster`"), "{}", stderr(&o));

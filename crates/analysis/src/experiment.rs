@@ -210,7 +210,10 @@ pub struct ExperimentReport {
 
 /// The factors whose level differs among `stimuli`.
 pub fn varying_factors(stimuli: &[StimulusId]) -> Vec<Factor> {
-    Factor::ALL.into_iter().filter(|&f| stimuli.iter().map(|s| s.level(f)).collect::<BTreeSet<_>>().len() > 1).collect()
+    Factor::WITH_METHOD
+        .into_iter()
+        .filter(|&f| stimuli.iter().map(|s| s.level(f)).collect::<BTreeSet<_>>().len() > 1)
+        .collect()
 }
 
 /// A short label naming the varying factors' levels (`T3-A4`), or the id if none vary.

@@ -46,8 +46,8 @@ pub fn level_preference(factor: Factor, level_a: u8, level_b: u8, n: u32, chose_
     };
     LevelPreference {
         factor,
-        level_a: format!("{}{level_a}", factor.letter()),
-        level_b: format!("{}{level_b}", factor.letter()),
+        level_a: factor.label(level_a),
+        level_b: factor.label(level_b),
         n,
         chose_a,
         p_a,

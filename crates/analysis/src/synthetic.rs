@@ -18,7 +18,7 @@ pub fn interaction_stimuli() -> Vec<StimulusId> {
     let mut out = Vec::new();
     for shutter in 3..=5 {
         for samples in 3..=5 {
-            out.push(StimulusId { material: 2, speed: 2, shutter, samples, view: study::View::Mono });
+            out.push(StimulusId { material: 2, speed: 2, shutter, samples, method: None, view: study::View::Mono });
         }
     }
     out

@@ -107,6 +107,7 @@ fn write_set(dir: &Path, stimuli: &[StimulusId]) {
                 speed: level(s.level_label(study::Factor::Speed), 10.0),
                 shutter: level(s.level_label(study::Factor::Shutter), 0.25 * f64::from(s.shutter - 1)),
                 samples: level(s.level_label(study::Factor::Samples), f64::from(spp)),
+                method: None,
             },
             method: study::Method::Tracer,
             preset: "quick".into(),

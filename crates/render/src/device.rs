@@ -10,10 +10,14 @@ use std::str::FromStr;
 use gpu::{AdapterChoice, GpuError, GpuInfo};
 use study::Method;
 use study::manifest::GpuRecord;
+use study::method::MethodSpec;
 use study::scene::FrameScene;
 
 use crate::env::EnvironmentMap;
-use crate::method::{RenderError, RenderedFrame, compose_eyes};
+use crate::filters::{FilterError, GpuFilters};
+use crate::gbuffer::{centre_time, gbuffers, instant_scene};
+use crate::io::LinearImage;
+use crate::method::{RenderError, RenderedFrame, compose_eyes, filter_seed, guertin_params, mcguire_params};
 use crate::tracer::gpu::{GpuEnvironment, GpuTracer, PendingFrame};
 
 /// The `--device` of a render.
@@ -65,12 +69,40 @@ pub enum DeviceError {
         /// Cause.
         source: crate::tracer::gpu::GpuTracerError,
     },
+    /// The post-process filters could not be set up on the adapter.
+    #[error("GPU filters on {adapter}: {source}")]
+    Filters {
+        /// The adapter.
+        adapter: String,
+        /// Cause.
+        source: Box<FilterError>,
+    },
 }
 
 /// The GPU half of a [`Renderer`].
 struct GpuDevice {
     tracer: GpuTracer,
     env: GpuEnvironment,
+    filters: GpuFilters,
+}
+
+/// The eyes of one tracer render and what it cost.
+struct Traced {
+    eyes: Vec<LinearImage>,
+    nonfinite_samples: u64,
+    camera_samples: u64,
+    gpu_seconds: Option<f64>,
+}
+
+fn filter_error(e: FilterError) -> RenderError {
+    RenderError::Filter(e.to_string())
+}
+
+fn add_seconds(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a + b),
+        (a, b) => a.or(b),
+    }
 }
 
 /// A device ready to render frames lit by one environment map.
@@ -131,9 +163,13 @@ impl<'env> Renderer<'env> {
         };
         let adapter = ctx.info.short();
         let setup = |source| DeviceError::Setup { adapter: adapter.clone(), source };
-        let opened = GpuTracer::new(ctx)
-            .map_err(|e| setup(e.into()))
-            .and_then(|tracer| Ok(GpuDevice { env: tracer.environment(env).map_err(setup)?, tracer }));
+        let filters = GpuFilters::new(ctx.clone())
+            .map_err(|e| DeviceError::Filters { adapter: adapter.clone(), source: Box::new(e) });
+        let opened = filters.and_then(|filters| {
+            GpuTracer::new(ctx)
+                .map_err(|e| setup(e.into()))
+                .and_then(|tracer| Ok(GpuDevice { env: tracer.environment(env).map_err(setup)?, tracer, filters }))
+        });
         match opened {
             Ok(gpu) => Ok(Renderer { env, gpu: Some(gpu) }),
             // `auto` promises a render: a GPU that cannot run the tracer leaves it to the CPU.
@@ -179,27 +215,117 @@ impl<'env> Renderer<'env> {
         self.gpu.is_some()
     }
 
-    /// Renders `scene` with `method`.
-    pub fn render(&self, method: Method, scene: &FrameScene) -> Result<RenderedFrame, RenderError> {
+    /// Renders `scene` with `method` and its settings.
+    pub fn render(&self, method: &MethodSpec, scene: &FrameScene) -> Result<RenderedFrame, RenderError> {
         let mut levels = self.submit(method, scene, &[])?.finish()?;
         Ok(levels.pop().expect("a submission has its full sample count"))
     }
 
     /// Starts `scene` with `method`, also reading it out at each sample count of
-    /// `checkpoints` below the scene's (nested sampling); the CPU renders before returning.
+    /// `checkpoints` below the scene's (nested sampling, the tracer's only); the CPU renders,
+    /// and methods other than the tracer finish, before returning.
     pub fn submit(
         &self,
-        method: Method,
+        method: &MethodSpec,
         scene: &FrameScene,
         checkpoints: &[u32],
     ) -> Result<Submitted<'_>, RenderError> {
-        match (method, &self.gpu) {
-            (Method::Tracer, Some(g)) => g
+        if method.kind != Method::Tracer && checkpoints.iter().any(|&k| k > 0 && k < scene.samples_per_pixel) {
+            return Err(RenderError::NotNested(method.kind));
+        }
+        match method.kind {
+            Method::Tracer => self.submit_tracer(scene, checkpoints),
+            Method::Accum => Ok(Submitted::Ready(vec![self.render_accum(method, scene)?])),
+            Method::Mcguire | Method::Guertin => Ok(Submitted::Ready(vec![self.render_filtered(method, scene)?])),
+            other => Err(RenderError::NotAvailable(other)),
+        }
+    }
+
+    /// The tracer's frame of `scene`, rendered to the end.
+    fn trace(&self, scene: &FrameScene) -> Result<Traced, RenderError> {
+        let frame = self.submit_tracer(scene, &[])?.finish()?.pop().expect("a submission has its full sample count");
+        // Submissions hand the eyes over composed side by side.
+        let eyes = split_eyes(&frame.image, scene);
+        Ok(Traced {
+            eyes,
+            nonfinite_samples: frame.nonfinite_samples,
+            camera_samples: frame.camera_samples,
+            gpu_seconds: frame.gpu_seconds,
+        })
+    }
+
+    /// The accumulation buffer: the mean of instantaneous tracer renders over the shutter.
+    fn render_accum(&self, method: &MethodSpec, scene: &FrameScene) -> Result<RenderedFrame, RenderError> {
+        let instants = crate::accum::instant_scenes(scene, method);
+        let mut images = Vec::with_capacity(instants.len());
+        let mut total = Traced { eyes: Vec::new(), nonfinite_samples: 0, camera_samples: 0, gpu_seconds: None };
+        for instant in &instants {
+            let traced = self.trace(instant)?;
+            total.nonfinite_samples += traced.nonfinite_samples;
+            total.camera_samples += traced.camera_samples;
+            total.gpu_seconds = add_seconds(total.gpu_seconds, traced.gpu_seconds);
+            images.push(traced.eyes);
+        }
+        Ok(RenderedFrame {
+            image: compose_eyes(crate::accum::average(&images)),
+            nonfinite_samples: total.nonfinite_samples,
+            camera_samples: total.camera_samples,
+            gpu_seconds: total.gpu_seconds,
+        })
+    }
+
+    /// A post-process filter over the G-buffer at the shutter's centre, eye by eye (each with
+    /// its own velocities, so nothing crosses the side-by-side seam). A frame without motion
+    /// during an open shutter has zero velocity everywhere, where the filters return their
+    /// input: it is the tracer's instant, unfiltered.
+    fn render_filtered(&self, method: &MethodSpec, scene: &FrameScene) -> Result<RenderedFrame, RenderError> {
+        let centre = instant_scene(scene, centre_time(&scene.shutter));
+        let traced = self.trace(&centre)?;
+        let mut gpu_seconds = traced.gpu_seconds;
+        let eyes = if scene.needs_time_sampling() {
+            let mut eyes = Vec::with_capacity(scene.views.len());
+            for (g, view) in gbuffers(scene, traced.eyes).iter().zip(&scene.views) {
+                let seed = filter_seed(view.seed);
+                let color = match (&self.gpu, method.kind) {
+                    (Some(d), Method::Mcguire) => {
+                        let out = d.filters.mcguire(g, &mcguire_params(method, seed)).map_err(filter_error)?;
+                        gpu_seconds = add_seconds(gpu_seconds, out.gpu_seconds);
+                        out.color
+                    }
+                    (Some(d), _) => {
+                        let out = d.filters.guertin(g, &guertin_params(method, seed)).map_err(filter_error)?;
+                        gpu_seconds = add_seconds(gpu_seconds, out.gpu_seconds);
+                        out.color
+                    }
+                    (None, Method::Mcguire) => {
+                        crate::filters::mcguire::try_mcguire_cpu(g, &mcguire_params(method, seed))
+                            .map_err(filter_error)?
+                    }
+                    (None, _) => crate::filters::guertin::try_guertin_cpu(g, &guertin_params(method, seed))
+                        .map_err(filter_error)?,
+                };
+                eyes.push(LinearImage { width: g.width, height: g.height, pixels: color });
+            }
+            eyes
+        } else {
+            traced.eyes
+        };
+        Ok(RenderedFrame {
+            image: compose_eyes(eyes),
+            nonfinite_samples: traced.nonfinite_samples,
+            camera_samples: traced.camera_samples,
+            gpu_seconds,
+        })
+    }
+
+    fn submit_tracer(&self, scene: &FrameScene, checkpoints: &[u32]) -> Result<Submitted<'_>, RenderError> {
+        match &self.gpu {
+            Some(g) => g
                 .tracer
                 .submit_nested(scene, &g.env, checkpoints)
                 .map(Submitted::Gpu)
                 .map_err(|e| RenderError::Gpu(e.to_string())),
-            (Method::Tracer, None) => Ok(Submitted::Ready(
+            None => Ok(Submitted::Ready(
                 crate::tracer::render_frame_nested(scene, self.env, checkpoints)
                     .into_iter()
                     .map(|o| RenderedFrame {
@@ -210,7 +336,26 @@ impl<'env> Renderer<'env> {
                     })
                     .collect(),
             )),
-            (other, _) => Err(RenderError::NotAvailable(other)),
         }
     }
+}
+
+/// The eyes of a composed frame of `scene`, left to right.
+fn split_eyes(image: &LinearImage, scene: &FrameScene) -> Vec<LinearImage> {
+    let mut x0 = 0;
+    scene
+        .views
+        .iter()
+        .map(|view| {
+            let (w, h) = (view.camera.width, view.camera.height);
+            let mut eye = LinearImage::new(w, h);
+            for y in 0..h {
+                for x in 0..w {
+                    eye.set(x, y, image.get(x0 + x, y));
+                }
+            }
+            x0 += w;
+            eye
+        })
+        .collect()
 }

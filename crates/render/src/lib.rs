@@ -2,15 +2,21 @@
 //! method on the chosen device; `method` holds what a render gives and [`render_frame`],
 //! the CPU shorthand. `tracer` is the distribution (Monte Carlo) ray tracer whose CPU
 //! path is the reference; `env` loads, generates and importance-samples environment maps;
+//! `accum` is the accumulation buffer; `gbuffer` the G-buffer (radiance at the shutter's
+//! centre, depth, analytic velocity) that the post-process motion blur `filters` read;
 //! `io` turns linear radiance into PNG/EXR files; `set` renders whole stimulus sets with
 //! manifests and resume; `numeric` holds the robust numerics every method shares.
 
+pub mod accum;
 pub mod device;
 pub mod env;
+pub mod filter_timing;
 pub mod filters;
+pub mod gbuffer;
 pub mod io;
 pub mod method;
 pub mod numeric;
+pub mod quality;
 pub mod set;
 pub mod tracer;
 

@@ -4,9 +4,11 @@
 //! opened; [`render_frame`] is its CPU shorthand. A new method is added there once.
 
 use study::Method;
+use study::method::MethodSpec;
 use study::scene::FrameScene;
 
 use crate::env::EnvironmentMap;
+use crate::filters::{GuertinParams, McGuireParams};
 use crate::io::{LinearImage, compose_side_by_side};
 
 /// Why a frame could not be rendered.
@@ -15,9 +17,15 @@ pub enum RenderError {
     /// The method is part of the study's design model but its renderer has not landed.
     #[error("rendering method `{0}` is not available in this build yet; use `tracer`")]
     NotAvailable(Method),
+    /// Nested sampling (one sample stream read out at several counts) is the tracer's alone.
+    #[error("rendering method `{0}` cannot render nested sample levels (--nested): only the tracer can")]
+    NotNested(Method),
     /// The GPU failed while rendering (device lost, out of memory, a limit).
     #[error("{0}")]
     Gpu(String),
+    /// A post-process filter refused its input or settings, or its device failed.
+    #[error("motion blur filter: {0}")]
+    Filter(String),
 }
 
 /// A rendered frame.
@@ -35,12 +43,47 @@ pub struct RenderedFrame {
 
 /// Whether this build renders with `method`.
 pub fn is_available(method: Method) -> bool {
-    matches!(method, Method::Tracer)
+    matches!(method, Method::Tracer | Method::Accum | Method::Mcguire | Method::Guertin)
 }
 
-/// Renders the frame `scene` with `method` on the CPU ([`crate::Renderer::cpu`]).
+/// Renders the frame `scene` with `method` (its default settings) on the CPU
+/// ([`crate::Renderer::cpu`]).
 pub fn render_frame(method: Method, scene: &FrameScene, env: &EnvironmentMap) -> Result<RenderedFrame, RenderError> {
-    crate::Renderer::cpu(env).render(method, scene)
+    crate::Renderer::cpu(env).render(&MethodSpec::of(method), scene)
+}
+
+/// The filters' per-pixel jitter seed of an eye (its 64-bit seed folded to the 32 bits the
+/// GPU hashes).
+pub fn filter_seed(eye_seed: u64) -> u32 {
+    (eye_seed ^ (eye_seed >> 32)) as u32
+}
+
+/// McGuire et al.'s filter with a design's settings (the paper's defaults where unset).
+pub fn mcguire_params(spec: &MethodSpec, seed: u32) -> McGuireParams {
+    let d = McGuireParams::default();
+    McGuireParams {
+        samples: spec.taps.unwrap_or(d.samples),
+        tile: spec.tile.unwrap_or(d.tile),
+        soft_z_extent: spec.soft_z_extent.map_or(d.soft_z_extent, |v| v as f32),
+        seed,
+    }
+}
+
+/// Guertin et al.'s filter with a design's settings (the paper's defaults where unset).
+pub fn guertin_params(spec: &MethodSpec, seed: u32) -> GuertinParams {
+    let d = GuertinParams::default();
+    let real = |v: Option<f64>, default: f32| v.map_or(default, |v| v as f32);
+    GuertinParams {
+        samples: spec.taps.unwrap_or(d.samples),
+        tile: spec.tile.unwrap_or(d.tile),
+        tau: real(spec.tau, d.tau),
+        kappa: real(spec.kappa, d.kappa),
+        eta: real(spec.eta, d.eta),
+        gamma: real(spec.gamma, d.gamma),
+        phi: real(spec.phi, d.phi),
+        seed,
+        ..d
+    }
 }
 
 /// One image of a frame's eyes: the single eye of a mono frame, or the eyes side by side.

@@ -79,7 +79,7 @@ impl SetError {
             self,
             SetError::Design(_)
                 | SetError::Environment(_)
-                | SetError::Method(RenderError::NotAvailable(_))
+                | SetError::Method(RenderError::NotAvailable(_) | RenderError::NotNested(_))
                 | SetError::Device(DeviceError::NoGpu(_))
                 | SetError::Mismatch { .. }
         )
@@ -134,6 +134,18 @@ pub struct SetRequest<'a> {
     pub device: DeviceChoice,
     /// Independent sample levels (the study's way) or nested ones (`--nested`).
     pub sampling: Sampling,
+}
+
+impl SetRequest<'_> {
+    /// The method and settings that render `id`: its method level's in a design with a
+    /// method factor, else the request's method with the design's `[method]` settings.
+    pub fn method_of(&self, id: &StimulusId) -> Result<study::method::MethodSpec, SetError> {
+        if self.design.has_method_factor() {
+            return Ok(self.design.method_of(id)?);
+        }
+        let spec = &self.design.spec.method;
+        Ok(if spec.kind == self.method { spec.clone() } else { study::method::MethodSpec::of(self.method) })
+    }
 }
 
 /// What a run did.
@@ -290,8 +302,15 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
             for id in group {
                 let folder = out.join(id.to_string());
                 if request.resume
-                    && let Some(manifest_sha) =
-                        verify_sequence(&folder, design, preset, &id, request.method, request.exr, request.sampling)
+                    && let Some(manifest_sha) = verify_sequence(
+                        &folder,
+                        design,
+                        preset,
+                        &id,
+                        request.method_of(&id)?.kind,
+                        request.exr,
+                        request.sampling,
+                    )
                 {
                     upsert(&mut index, &id, &manifest_sha);
                     write_index(writer, &index_path, &mut index)?;
@@ -427,6 +446,7 @@ fn render_stream(
     mut on_frame: impl FnMut(u64),
 ) -> Result<Vec<SequenceManifest>, SetError> {
     let (design, preset, exr) = (request.design, &request.preset, request.exr);
+    let method = request.method_of(&members[0])?;
     let spp_of = |id: &StimulusId| preset.samples_per_pixel[usize::from(id.samples - 1)];
     let spps: Vec<u32> = members.iter().map(spp_of).collect();
     let stream_spp = spps.iter().copied().max().unwrap_or(0);
@@ -512,7 +532,7 @@ fn render_stream(
             scene.samples_per_pixel = stream_spp;
             seeds_of_frame.push(scene.views.iter().map(|v| v.seed).collect());
             let (started, cpu0) = (Instant::now(), process_cpu_seconds());
-            let submitted = renderer.submit(request.method, &scene, &levels)?;
+            let submitted = renderer.submit(&method, &scene, &levels)?;
             in_flight.push_back((frame, scene, submitted, started, cpu0));
             while in_flight.len() > if asynchronous { FRAMES_IN_FLIGHT } else { 0 } {
                 if let Some(next) = in_flight.pop_front() {
@@ -543,7 +563,7 @@ fn render_stream(
                 id: *id,
                 view: id.view,
                 factors: design.factors(id, preset)?,
-                method: request.method,
+                method: method.kind,
                 preset: preset.name.clone(),
                 width: size.0,
                 height: size.1,

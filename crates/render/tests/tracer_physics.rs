@@ -365,7 +365,7 @@ fn the_two_eyes_have_independent_noise() {
     // Both eyes look through the same camera (so they see the same expected image) with
     // the seeds a stereo frame gives them; their residuals against a high-sample
     // reference must be uncorrelated.
-    let id = StimulusId { material: 3, speed: 2, shutter: 3, samples: 1, view: View::Stereo };
+    let id = StimulusId { material: 3, speed: 2, shutter: 3, samples: 1, method: None, view: View::Stereo };
     let mut s = noise_close_up(64, 36, 4);
     let cam = s.views[0].camera.clone();
     let seed = |eye| study::seed::frame_seed(2011, &id, eye, 3);

@@ -377,6 +377,7 @@ pub fn write_synthetic_set(
                 speed: level(id.level_label(study::Factor::Speed), 5.0 * f64::from(id.speed)),
                 shutter: level(id.level_label(study::Factor::Shutter), 0.25 * f64::from(id.shutter - 1)),
                 samples: level(id.level_label(study::Factor::Samples), f64::from(id.samples)),
+                method: None,
             },
             method: study::Method::Tracer,
             preset: "test".into(),

@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use crate::fsio::sha256_hex;
+use crate::ids::MethodTag;
 use crate::ids::{StimulusId, View};
 use crate::response::Task;
 use crate::toml_locate::{TomlError, backticked, key_line};
@@ -251,12 +252,25 @@ impl ExperimentDefinition {
                 return Err(bad("stimuli", None, key, "lists a level twice".into()));
             }
         }
+        let mut methods: Vec<Option<MethodTag>> = Vec::new();
+        for text in &s.method {
+            let tag = text.parse::<MethodTag>().map_err(|m| bad("stimuli", None, "method", m))?;
+            if methods.contains(&Some(tag)) {
+                return Err(bad("stimuli", None, "method", format!("lists `{tag}` twice")));
+            }
+            methods.push(Some(tag));
+        }
+        if methods.is_empty() {
+            methods.push(None);
+        }
         let mut stimuli = Vec::new();
         for &material in &s.material {
             for &speed in &s.speed {
                 for &shutter in &s.shutter {
                     for &samples in &s.samples {
-                        stimuli.push(StimulusId { material, speed, shutter, samples, view });
+                        for &method in &methods {
+                            stimuli.push(StimulusId { material, speed, shutter, samples, method, view });
+                        }
                     }
                 }
             }
@@ -502,6 +516,9 @@ struct RawStimuli {
     speed: Vec<u8>,
     shutter: Vec<u8>,
     samples: Vec<u8>,
+    /// Method levels by tag (`tracer`, `guertin2`), for sets of a design with a method factor.
+    #[serde(default)]
+    method: Vec<String>,
 }
 
 #[derive(Deserialize)]

@@ -2,12 +2,16 @@
 //! and `M2-S2-T3-A5-stereo` for its side-by-side stereo twin.
 //!
 //! Levels are 1-based indices into the design file's factor lists; the id itself does not
-//! know how many levels a design has (the design validates that).
+//! know how many levels a design has (the design validates that). A design with a rendering
+//! method factor (`[[factors.method]]`) adds the method level's tag before the view:
+//! `M3-S3-T5-A1-guertin`, `M3-S3-T5-A5-tracer-stereo` ([`MethodTag`]).
 
 use std::fmt;
 use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
+
+use crate::method::Method;
 
 /// Whether a sequence is seen by one camera or by a stereo pair composed side by side.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -19,7 +23,7 @@ pub enum View {
     Stereo,
 }
 
-/// The four factors of the study, in the order they appear in an id.
+/// The factors of the study, in the order they appear in an id.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Factor {
@@ -31,11 +35,17 @@ pub enum Factor {
     Shutter,
     /// A: samples per pixel (antialiasing level).
     Samples,
+    /// The rendering method (optional: only designs with `[[factors.method]]` have it).
+    Method,
 }
 
 impl Factor {
-    /// All factors in id order.
+    /// The four numbered factors every design has, in id order.
     pub const ALL: [Factor; 4] = [Factor::Material, Factor::Speed, Factor::Shutter, Factor::Samples];
+
+    /// Every factor, the rendering method last.
+    pub const WITH_METHOD: [Factor; 5] =
+        [Factor::Material, Factor::Speed, Factor::Shutter, Factor::Samples, Factor::Method];
 
     /// The letter that prefixes this factor's level in an id.
     pub fn letter(self) -> char {
@@ -44,7 +54,73 @@ impl Factor {
             Factor::Speed => 'S',
             Factor::Shutter => 'T',
             Factor::Samples => 'A',
+            Factor::Method => 'R',
         }
+    }
+
+    /// The label of a level as [`StimulusId::level`] gives it: `T3`, or a method's tag.
+    pub fn label(self, level: u8) -> String {
+        match self {
+            Factor::Method => MethodTag::from_code(level).map_or_else(|| "-".to_owned(), |t| t.to_string()),
+            _ => format!("{}{level}", self.letter()),
+        }
+    }
+}
+
+/// A level of the rendering-method factor as an id writes it: the method's name, followed by
+/// a number from 2 on when a design has several levels of one method (`guertin`, `guertin2`:
+/// the first and second `guertin` levels in the file).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct MethodTag {
+    /// The method.
+    pub kind: Method,
+    /// 1 for the design's first level of this method, 2 for its second, ...
+    pub variant: u8,
+}
+
+impl MethodTag {
+    /// Most levels of one method in a design.
+    pub const MAX_VARIANTS: u8 = 50;
+
+    /// The tag as one small number, ordered as the tags are ([`StimulusId::level`]).
+    pub fn code(self) -> u8 {
+        let kind = Method::ALL.iter().position(|&m| m == self.kind).unwrap_or(0) as u8;
+        kind * Self::MAX_VARIANTS + self.variant
+    }
+
+    /// The tag of [`MethodTag::code`]; `None` for 0 (no method factor) or an invalid code.
+    pub fn from_code(code: u8) -> Option<MethodTag> {
+        let (kind, variant) = (code.checked_sub(1)? / Self::MAX_VARIANTS, (code - 1) % Self::MAX_VARIANTS + 1);
+        Some(MethodTag { kind: *Method::ALL.get(usize::from(kind))?, variant })
+    }
+}
+
+impl fmt::Display for MethodTag {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.kind.name())?;
+        if self.variant > 1 {
+            write!(f, "{}", self.variant)?;
+        }
+        Ok(())
+    }
+}
+
+impl FromStr for MethodTag {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        let digits = text.len() - text.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+        let (name, number) = text.split_at(text.len() - digits);
+        let kind: Method = name.parse()?;
+        let variant = match number {
+            "" => 1,
+            n => n
+                .parse::<u8>()
+                .ok()
+                .filter(|v| (2..=Self::MAX_VARIANTS).contains(v) && !n.starts_with('0'))
+                .ok_or_else(|| format!("`{text}`: a method's level number runs from 2 to {}", Self::MAX_VARIANTS))?,
+        };
+        Ok(MethodTag { kind, variant })
     }
 }
 
@@ -59,6 +135,8 @@ pub struct StimulusId {
     pub shutter: u8,
     /// Sampling level, 1-based (A1..).
     pub samples: u8,
+    /// The rendering method's level, in designs with a method factor.
+    pub method: Option<MethodTag>,
     /// Mono or side-by-side stereo.
     pub view: View,
 }
@@ -71,12 +149,18 @@ impl StimulusId {
             Factor::Speed => self.speed,
             Factor::Shutter => self.shutter,
             Factor::Samples => self.samples,
+            Factor::Method => self.method.map_or(0, MethodTag::code),
         }
     }
 
-    /// The level label of `factor`, e.g. `T3`.
+    /// The level label of `factor`, e.g. `T3` or `guertin`.
     pub fn level_label(&self, factor: Factor) -> String {
-        format!("{}{}", factor.letter(), self.level(factor))
+        factor.label(self.level(factor))
+    }
+
+    /// The same stimulus without its method level (whose seeds it shares).
+    pub fn without_method(self) -> Self {
+        Self { method: None, ..self }
     }
 
     /// The same stimulus seen in the other view.
@@ -88,6 +172,9 @@ impl StimulusId {
 impl fmt::Display for StimulusId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "M{}-S{}-T{}-A{}", self.material, self.speed, self.shutter, self.samples)?;
+        if let Some(method) = self.method {
+            write!(f, "-{method}")?;
+        }
         if self.view == View::Stereo {
             f.write_str("-stereo")?;
         }
@@ -97,7 +184,9 @@ impl fmt::Display for StimulusId {
 
 /// Why a string is not a stimulus id.
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
-#[error("`{text}` is not a stimulus id: {reason} (expected e.g. `M2-S2-T3-A5` or `M2-S2-T3-A5-stereo`)")]
+#[error(
+    "`{text}` is not a stimulus id: {reason} (expected e.g. `M2-S2-T3-A5`, `M2-S2-T3-A5-stereo` or, with a method factor, `M2-S2-T3-A5-guertin`)"
+)]
 pub struct IdError {
     /// The text that failed to parse.
     pub text: String,
@@ -117,6 +206,10 @@ impl FromStr for StimulusId {
         } else {
             View::Mono
         };
+        let method = match parts.len() {
+            5 => Some(parts.pop().unwrap_or_default().parse::<MethodTag>().map_err(err)?),
+            _ => None,
+        };
         if parts.len() != 4 {
             return Err(err(format!("found {} level parts, expected 4", parts.len())));
         }
@@ -131,7 +224,7 @@ impl FromStr for StimulusId {
                 .filter(|&l| l >= 1)
                 .ok_or_else(|| err(format!("`{part}` needs a level number of 1 or more")))?;
         }
-        Ok(StimulusId { material: levels[0], speed: levels[1], shutter: levels[2], samples: levels[3], view })
+        Ok(StimulusId { material: levels[0], speed: levels[1], shutter: levels[2], samples: levels[3], method, view })
     }
 }
 
@@ -154,12 +247,37 @@ mod tests {
 
     #[test]
     fn round_trips_mono_and_stereo() {
-        for text in ["M2-S2-T3-A5", "M1-S3-T1-A1-stereo", "M12-S1-T10-A2"] {
+        for text in
+            ["M2-S2-T3-A5", "M1-S3-T1-A1-stereo", "M12-S1-T10-A2", "M3-S3-T5-A1-guertin", "M1-S1-T1-A5-accum3-stereo"]
+        {
             let id: StimulusId = text.parse().unwrap();
             assert_eq!(id.to_string(), text);
         }
         let id: StimulusId = "M2-S2-T3-A5-stereo".parse().unwrap();
         assert_eq!((id.material, id.speed, id.shutter, id.samples, id.view), (2, 2, 3, 5, View::Stereo));
+        let id: StimulusId = "M1-S1-T1-A5-accum3-stereo".parse().unwrap();
+        assert_eq!(id.method, Some(MethodTag { kind: Method::Accum, variant: 3 }));
+        assert_eq!(id.level_label(Factor::Method), "accum3");
+        assert_eq!(id.without_method().to_string(), "M1-S1-T1-A5-stereo");
+    }
+
+    #[test]
+    fn method_codes_round_trip_and_keep_the_tags_order() {
+        let mut tags = Vec::new();
+        for kind in Method::ALL {
+            for variant in 1..=MethodTag::MAX_VARIANTS {
+                tags.push(MethodTag { kind, variant });
+            }
+        }
+        for w in tags.windows(2) {
+            assert!(w[0] < w[1] && w[0].code() < w[1].code());
+        }
+        for t in tags {
+            assert_eq!(MethodTag::from_code(t.code()), Some(t));
+            assert_eq!(t.to_string().parse::<MethodTag>(), Ok(t));
+        }
+        assert_eq!(MethodTag::from_code(0), None);
+        assert_eq!(Factor::Method.label(0), "-");
     }
 
     #[test]
@@ -168,7 +286,10 @@ mod tests {
             ("M2-S2-T3", "found 3 level parts"),
             ("M2-X2-T3-A5", "should start with `S`"),
             ("M0-S2-T3-A5", "level number of 1 or more"),
-            ("M2-S2-T3-A5-mono", "found 5 level parts"),
+            ("M2-S2-T3-A5-mono", "unknown rendering method `mono`"),
+            ("M2-S2-T3-A5-guertin1", "from 2 to 50"),
+            ("M2-S2-T3-A5-guertin02", "from 2 to 50"),
+            ("M2-S2-T3-A5-tracer-x-stereo", "found 6 level parts"),
         ] {
             let e = text.parse::<StimulusId>().unwrap_err();
             assert!(e.to_string().contains(needle), "{e}");

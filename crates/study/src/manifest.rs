@@ -37,6 +37,10 @@ pub struct Factors {
     pub shutter: LevelInfo,
     /// Sampling level (value: samples per pixel actually rendered).
     pub samples: LevelInfo,
+    /// Rendering-method level, in designs with a method factor (label: its tag; value: the
+    /// tag's code, `StimulusId::level`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<LevelInfo>,
 }
 
 /// One rendered frame.

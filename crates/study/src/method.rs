@@ -1,6 +1,8 @@
 //! The rendering method of a stimulus set: which algorithm turns a frame's scene into
-//! pixels. Design files name it (`[method] kind = "tracer"`, the default), manifests record
-//! it, and `render::Renderer` dispatches on it.
+//! pixels, and its settings. Design files name it (`[method] kind = "tracer"`, the default)
+//! or make it a factor (`[[factors.method]]`, one table per level), manifests record it, and
+//! `render::Renderer` dispatches on it. Settings left out take the method's defaults, which
+//! the renderer documents (the filters' come from their papers).
 
 use std::fmt;
 use std::str::FromStr;
@@ -57,13 +59,82 @@ impl FromStr for Method {
     }
 }
 
-/// `[method]` of a design file: the set's rendering method.
+/// `[method]` of a design file (the set's rendering method) or one `[[factors.method]]`
+/// level: the method and the settings that apply to it (others are refused by the design).
 #[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct MethodSpec {
+    /// Human name of a method level (reports); defaults to the level's tag.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// The method (default `tracer`).
     #[serde(default)]
     pub kind: Method,
+    /// Accumulation buffer: instants K averaged over the open shutter.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub instants: Option<u32>,
+    /// Accumulation buffer: jittered instants (one random time in each of the K equal
+    /// sub-intervals) instead of their centres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jitter: Option<bool>,
+    /// Accumulation buffer: samples per pixel of each instant; by default the A level's
+    /// samples are shared among the instants (rounded up).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples_per_instant: Option<u32>,
+    /// Filters: taps N gathered per pixel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub taps: Option<u32>,
+    /// Filters: tile size in pixels, the largest blur radius (McGuire's k, Guertin's r).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tile: Option<u32>,
+    /// McGuire: the soft depth comparison's extent, metres (Guertin's depth comparison is
+    /// relative and has none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub soft_z_extent: Option<f64>,
+    /// Guertin: tau, the velocity (pixels) below which the centre velocity is used alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tau: Option<f64>,
+    /// Guertin: kappa, the centre weight's scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kappa: Option<f64>,
+    /// Guertin: eta, the tile variance threshold of the sampling split.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eta: Option<f64>,
+    /// Guertin: gamma, the exponent of the direction weights.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gamma: Option<f64>,
+    /// Guertin: phi, the jitter scale (the jitter is phi / N).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phi: Option<f64>,
+}
+
+impl MethodSpec {
+    /// The method's defaults.
+    pub fn of(kind: Method) -> MethodSpec {
+        MethodSpec { kind, ..MethodSpec::default() }
+    }
+
+    /// The settings written, as `(key, applies to)`: which methods take each key.
+    pub fn settings(&self) -> Vec<(&'static str, &'static [Method])> {
+        const ACCUM: &[Method] = &[Method::Accum];
+        const FILTERS: &[Method] = &[Method::Mcguire, Method::Guertin];
+        const GUERTIN: &[Method] = &[Method::Guertin];
+        const MCGUIRE: &[Method] = &[Method::Mcguire];
+        let written = [
+            ("instants", self.instants.is_some(), ACCUM),
+            ("jitter", self.jitter.is_some(), ACCUM),
+            ("samples_per_instant", self.samples_per_instant.is_some(), ACCUM),
+            ("taps", self.taps.is_some(), FILTERS),
+            ("tile", self.tile.is_some(), FILTERS),
+            ("soft_z_extent", self.soft_z_extent.is_some(), MCGUIRE),
+            ("tau", self.tau.is_some(), GUERTIN),
+            ("kappa", self.kappa.is_some(), GUERTIN),
+            ("eta", self.eta.is_some(), GUERTIN),
+            ("gamma", self.gamma.is_some(), GUERTIN),
+            ("phi", self.phi.is_some(), GUERTIN),
+        ];
+        written.into_iter().filter(|(_, set, _)| *set).map(|(k, _, m)| (k, m)).collect()
+    }
 }
 
 #[cfg(test)]
@@ -84,5 +155,8 @@ mod tests {
         assert_eq!(spec.kind, Method::Guertin);
         assert!(toml::from_str::<MethodSpec>("kind = \"x\"").is_err());
         assert!(toml::from_str::<MethodSpec>("sort = \"tracer\"").is_err());
+        let spec: MethodSpec = toml::from_str("kind = \"accum\"\ninstants = 8\ntau = 1.0").unwrap();
+        let keys: Vec<_> = spec.settings().into_iter().map(|(k, m)| (k, m.to_vec())).collect();
+        assert_eq!(keys, vec![("instants", vec![Method::Accum]), ("tau", vec![Method::Guertin])]);
     }
 }

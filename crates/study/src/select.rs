@@ -4,17 +4,20 @@
 //! letter with levels: `T3`, a range `T3-T5` (or `T3-5`), or a comma list `M1,M3,T2-4` whose
 //! items all belong to the first item's factor. Factors a term does not name are
 //! unconstrained; naming a factor twice is an error. `mono` or `stereo` restricts the view.
+//! In a design with a method factor, a term of method tags (`guertin`, `tracer,accum2`)
+//! restricts the method levels.
 
 use std::collections::BTreeSet;
 use std::fmt;
 use std::str::FromStr;
 
-use crate::ids::{Factor, StimulusId, View};
+use crate::ids::{Factor, MethodTag, StimulusId, View};
 
 /// A parsed `--only` expression.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Selection {
     levels: [Option<BTreeSet<u8>>; 4],
+    methods: Option<BTreeSet<MethodTag>>,
     view: Option<View>,
     text: String,
 }
@@ -55,8 +58,16 @@ impl FromStr for Selection {
                 }
                 _ => {}
             }
+            if let Ok(tags) = term.split(',').map(str::parse::<MethodTag>).collect::<Result<BTreeSet<_>, _>>() {
+                if selection.methods.replace(tags).is_some() {
+                    return Err(err(format!("`{term}`: the method is named twice")));
+                }
+                continue;
+            }
             let first = term.chars().next().and_then(factor_of).ok_or_else(|| {
-                err(format!("`{term}` should start with a factor letter (M, S, T, A), or be `*`, `mono` or `stereo`"))
+                err(format!(
+                    "`{term}` should start with a factor letter (M, S, T, A), or be method tags, `*`, `mono` or `stereo`"
+                ))
             })?;
             let mut set = BTreeSet::new();
             for item in term.split(',') {
@@ -101,6 +112,7 @@ impl Selection {
     /// Whether `id` is selected.
     pub fn matches(&self, id: &StimulusId) -> bool {
         self.view.is_none_or(|v| v == id.view)
+            && self.methods.as_ref().is_none_or(|set| id.method.is_some_and(|m| set.contains(&m)))
             && Factor::ALL.iter().all(|&f| self.levels[index(f)].as_ref().is_none_or(|set| set.contains(&id.level(f))))
     }
 
@@ -139,6 +151,12 @@ mod tests {
         assert!(!sel.matches(&id("M2-S1-T4-A5-stereo")));
         assert!(Selection::all().matches(&id("M9-S9-T9-A9")));
         assert_eq!("T3-6".parse::<Selection>().unwrap().missing_levels(Factor::Shutter, 5), vec![6]);
+        let sel: Selection = "M3 guertin,tracer2 A1".parse().unwrap();
+        assert!(sel.matches(&id("M3-S1-T4-A1-guertin")));
+        assert!(sel.matches(&id("M3-S1-T4-A1-tracer2-stereo")));
+        assert!(!sel.matches(&id("M3-S1-T4-A1-tracer")));
+        assert!(!sel.matches(&id("M3-S1-T4-A1")));
+        assert!("accum mcguire".parse::<Selection>().unwrap_err().to_string().contains("method is named twice"));
     }
 
     #[test]

@@ -160,7 +160,7 @@ fn projected_speed_matches_degrees_per_second_times_pixels_per_degree() {
     for preset in ["full", "quick"] {
         let p = d.preset(preset).unwrap();
         for (speed, deg) in [(1, 5.0), (2, 10.0), (3, 15.0)] {
-            let id = StimulusId { material: 1, speed, shutter: 1, samples: 1, view: View::Mono };
+            let id = StimulusId { material: 1, speed, shutter: 1, samples: 1, method: None, view: View::Mono };
             let s = d.frame_scene_with(&p, &id, 0).unwrap();
             let cam = &s.views[0].camera;
             let dt = 1e-4;
@@ -183,7 +183,7 @@ fn projected_speed_matches_degrees_per_second_times_pixels_per_degree() {
 fn the_sphere_is_in_view_most_of_the_sequence_and_wraps_out_of_view() {
     let d = shipped();
     for speed in 1..=3u8 {
-        let id = StimulusId { material: 1, speed, shutter: 1, samples: 1, view: View::Mono };
+        let id = StimulusId { material: 1, speed, shutter: 1, samples: 1, method: None, view: View::Mono };
         let s = d.frame_scene(&id, 0).unwrap();
         let cam = &s.views[0].camera;
         let frames = 120;
@@ -220,7 +220,7 @@ fn shutter_is_centred_on_the_frame_time_bounded_by_the_frame_and_t1_is_instantan
     let d = shipped();
     let fps = 30.0;
     for shutter in 1..=5u8 {
-        let id = StimulusId { material: 2, speed: 3, shutter, samples: 1, view: View::Mono };
+        let id = StimulusId { material: 2, speed: 3, shutter, samples: 1, method: None, view: View::Mono };
         for frame in [0, 57, 119] {
             let s = d.frame_scene(&id, frame).unwrap();
             assert!((s.frame_time - (f64::from(frame) + 0.5) / fps).abs() < 1e-12);
@@ -290,4 +290,68 @@ fn the_method_defaults_to_the_tracer_and_a_design_may_name_another() {
     let (_, shown, _) = load_err(&bad);
     assert!(shown.contains(&format!(":{}:", line_of(&bad, "kind = \"raytracer\""))), "{shown}");
     assert!(shown.contains("key `method.kind`") && shown.contains("raytracer"), "{shown}");
+}
+
+fn methods_design() -> Design {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/methods.toml");
+    Design::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn methods_design_adds_a_method_factor_whose_ids_name_the_method_and_share_the_tracer_seeds() {
+    let d = methods_design();
+    let tags: Vec<String> = d.method_tags().iter().map(|t| t.to_string()).collect();
+    assert_eq!(tags, ["tracer", "accum", "mcguire", "guertin"]);
+    let mono = d.ids(Views::Mono);
+    assert_eq!(mono.len(), 225 * 4);
+    assert_eq!(mono[0].to_string(), "M1-S1-T1-A1-tracer");
+    assert_eq!(mono[3].to_string(), "M1-S1-T1-A1-guertin");
+    for id in &mono {
+        assert_eq!(id.to_string().parse::<StimulusId>().unwrap(), *id);
+    }
+    let id: StimulusId = "M3-S3-T5-A1-guertin".parse().unwrap();
+    let spec = d.method_of(&id).unwrap();
+    assert_eq!((spec.kind, spec.taps, spec.tile, spec.phi), (study::Method::Guertin, Some(35), Some(40), Some(27.0)));
+    assert_eq!(d.factors(&id, &d.preset("full").unwrap()).unwrap().method.unwrap().label, "guertin");
+    // The tracer level renders navarro2011's frames: the same scene and seeds.
+    let navarro = shipped();
+    let plain: StimulusId = "M3-S3-T5-A1".parse().unwrap();
+    let quick = d.preset("quick").unwrap();
+    let a = d.frame_scene_with(&quick, &"M3-S3-T5-A1-tracer".parse().unwrap(), 3).unwrap();
+    let b = navarro.frame_scene_with(&navarro.preset("quick").unwrap(), &plain, 3).unwrap();
+    assert_eq!(a.views, b.views);
+    assert_eq!((a.shutter, a.samples_per_pixel), (b.shutter, b.samples_per_pixel));
+    // Ids must say their method in this design, and only here.
+    assert!(
+        d.check_id(&plain).unwrap_err().to_string().contains("name a level after A (tracer, accum, mcguire, guertin)")
+    );
+    let e = navarro.check_id(&id).unwrap_err().to_string();
+    assert!(e.contains("has no rendering-method factor"), "{e}");
+    let e = d.check_id(&"M3-S3-T5-A1-guertin2".parse().unwrap()).unwrap_err().to_string();
+    assert!(e.contains("no method level `guertin2`"), "{e}");
+}
+
+#[test]
+fn method_settings_must_belong_to_their_method_and_lie_in_range() {
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/methods.toml")).unwrap();
+    let (_, msg, path) = load_err(&text.replace("instants = 8", "instants = 8\ntaps = 3"));
+    let line = line_of(&text.replace("instants = 8", "instants = 8\ntaps = 3"), "taps = 3");
+    assert_eq!(
+        msg,
+        format!(
+            "{}:{line}: key `factors.method[2].taps`: applies to mcguire and guertin only, not to `accum`",
+            path.display()
+        )
+    );
+    let (_, msg, _) = load_err(&text.replace("eta = 0.95", "eta = 1.5"));
+    assert!(msg.contains("key `factors.method[4].eta`: must lie in [0, 1], found 1.5"), "{msg}");
+    let (_, msg, _) = load_err(&text.replace("taps = 35", "taps = 0"));
+    assert!(msg.contains("key `factors.method[4].taps`: must lie in 1..=1024, found 0"), "{msg}");
+    let (_, msg, _) = load_err(&text.replace("kind = \"guertin\"", "kind = \"blur\""));
+    assert!(msg.contains("unknown variant `blur`"), "{msg}");
+    let (_, msg, _) = load_err(&format!("{text}\n[method]\nkind = \"accum\"\n"));
+    assert!(msg.contains("key `method`: a design with `[[factors.method]]` levels"), "{msg}");
+    let (_, msg, _) = load_err(&format!("{}\n[method]\nkind = \"tracer\"\ntau = 2.0\n", shipped_text()));
+    assert!(msg.contains("key `method.tau`: applies to guertin only, not to `tracer`"), "{msg}");
 }

@@ -1,6 +1,8 @@
 //! `blurlab bench ...`: benchmarks that print JSON, one submodule per measured component.
 
 pub mod analysis;
+pub mod filters;
+pub mod methods;
 pub mod playback;
 pub mod tracer;
 
@@ -15,6 +17,10 @@ pub struct Args {
 enum Which {
     /// Camera samples per second of the CPU tracer (optionally against Mitsuba 3).
     Tracer(tracer::Args),
+    /// Milliseconds per frame of the post-process filters (GPU timestamps, CPU twins beside).
+    Filters(filters::Args),
+    /// Each rendering method's error against a tracer reference, and its time.
+    Methods(methods::Args),
     /// Analysis speed: grouping, bootstrap scaling, W quantiles.
     Analysis(analysis::Args),
     /// Runner: sequence decode/upload time, memory, frame pacing.
@@ -25,6 +31,8 @@ enum Which {
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.which {
         Which::Tracer(a) => tracer::run(a),
+        Which::Filters(a) => filters::run(a),
+        Which::Methods(a) => methods::run(a),
         Which::Analysis(a) => analysis::run(a),
         Which::Playback(a) => playback::run(a),
     }

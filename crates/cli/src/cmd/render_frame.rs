@@ -13,7 +13,8 @@ use study::Method;
 pub struct Args {
     #[command(flatten)]
     frame: FrameArgs,
-    /// Rendering method: tracer, accum, mcguire, guertin or analytic (default: the design's).
+    /// Rendering method: tracer, accum, mcguire, guertin or analytic, with its default
+    /// settings (default: the design's method and settings, or the id's method level's).
     #[arg(long, value_parser = parse_method)]
     method: Option<Method>,
     /// Output file: `.exr` for linear radiance, `.png` for the sRGB display image.
@@ -32,7 +33,12 @@ fn parse_method(text: &str) -> Result<Method, String> {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let Frame { id, scene, design, .. } = args.frame.resolve()?;
-    let method = args.method.unwrap_or_else(|| design.method());
+    let spec = match args.method {
+        Some(m) if m == design.spec.method.kind && !design.has_method_factor() => design.spec.method.clone(),
+        Some(m) => study::method::MethodSpec::of(m),
+        None => design.method_of(&id).map_err(|e| BadInput(e.to_string()))?,
+    };
+    let method = spec.kind;
     if !render::method::is_available(method) {
         return Err(BadInput(format!("--method {method}: {}", render::RenderError::NotAvailable(method))).into());
     }
@@ -48,7 +54,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         e => anyhow::Error::new(e),
     })?;
     let started = std::time::Instant::now();
-    let rendered = renderer.render(method, &scene).map_err(|e| match e {
+    let rendered = renderer.render(&spec, &scene).map_err(|e| match e {
         render::RenderError::NotAvailable(_) => anyhow::Error::new(BadInput(e.to_string())),
         e => anyhow::Error::new(e),
     })?;

@@ -18,7 +18,8 @@ use crate::numeric::CompensatedSum;
 use crate::tracer::render_frame;
 
 /// The stimulus the benchmark renders.
-pub const BENCH_STIMULUS: StimulusId = StimulusId { material: 3, speed: 3, shutter: 5, samples: 1, view: View::Mono };
+pub const BENCH_STIMULUS: StimulusId =
+    StimulusId { material: 3, speed: 3, shutter: 5, samples: 1, method: None, view: View::Mono };
 
 /// The benchmark frame of `design` at `spp` samples per pixel: the frame (of the full
 /// preset) whose sphere centre projects nearest the image centre. `freeze` replaces the
@@ -193,7 +194,8 @@ fn mean_rgb(images: &[&LinearImage]) -> [f64; 3] {
     })
 }
 
-fn average(a: &LinearImage, b: &LinearImage) -> LinearImage {
+/// The mean of two images of one size, pixel by pixel.
+pub fn average(a: &LinearImage, b: &LinearImage) -> LinearImage {
     let pixels = a
         .pixels
         .iter()
@@ -203,7 +205,8 @@ fn average(a: &LinearImage, b: &LinearImage) -> LinearImage {
     LinearImage { width: a.width, height: a.height, pixels }
 }
 
-fn machine() -> serde_json::Value {
+/// What the benchmark ran on: cores, rayon threads, CPU model, load at the start.
+pub fn machine_json() -> serde_json::Value {
     let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
     let model = cpuinfo
         .lines()
@@ -250,7 +253,7 @@ fn timed_render(scene: &FrameScene, env: &EnvironmentMap) -> Timed {
 /// renderer's best render over all rounds (Mitsuba's driver has always reported its best),
 /// and the means are reported beside them.
 pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchError> {
-    let machine = machine();
+    let machine = machine_json();
     let design = Design::load(&opts.design)?;
     let moving = benchmark_frame(&design, opts.spp, false)?;
     let frozen = benchmark_frame(&design, opts.spp, true)?;

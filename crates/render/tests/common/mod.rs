@@ -15,7 +15,7 @@ pub const L: f64 = 0.8;
 
 pub fn scene(camera: Camera, material: Material, environment: Environment, spp: u32) -> FrameScene {
     FrameScene {
-        stimulus: StimulusId { material: 1, speed: 1, shutter: 1, samples: 1, view: View::Mono },
+        stimulus: StimulusId { material: 1, speed: 1, shutter: 1, samples: 1, method: None, view: View::Mono },
         frame: 0,
         frame_time: 0.0,
         shutter: Shutter { open: 0.0, close: 0.0 },

@@ -17,8 +17,9 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use crate::fsio::sha256_hex;
-use crate::ids::{Factor, StimulusId, View};
+use crate::ids::{Factor, MethodTag, StimulusId, View};
 use crate::manifest::{Factors, LevelInfo};
+use crate::method::MethodSpec;
 use crate::scene::{Environment, Lighting};
 use crate::toml_locate::{TomlError, key_line};
 
@@ -178,9 +179,38 @@ impl Design {
     }
 
     /// The rendering method the design names for its set (the tracer unless `[method]` says
-    /// otherwise).
+    /// otherwise); in a design with a method factor, each id's own ([`Design::method_of`]).
     pub fn method(&self) -> crate::Method {
         self.spec.method.kind
+    }
+
+    /// Whether the design has a rendering-method factor (`[[factors.method]]`).
+    pub fn has_method_factor(&self) -> bool {
+        !self.spec.factors.method.is_empty()
+    }
+
+    /// The method levels' tags in file order (`tracer`, `guertin`, `guertin2`, ...).
+    pub fn method_tags(&self) -> Vec<MethodTag> {
+        let levels = &self.spec.factors.method;
+        (0..levels.len())
+            .map(|i| {
+                let kind = levels[i].kind;
+                let variant = levels[..=i].iter().filter(|m| m.kind == kind).count() as u8;
+                MethodTag { kind, variant }
+            })
+            .collect()
+    }
+
+    /// The method and settings that render `id`: its method level's, or the design's `[method]`.
+    pub fn method_of(&self, id: &StimulusId) -> Result<MethodSpec, DesignError> {
+        self.check_id(id)?;
+        Ok(match id.method {
+            Some(tag) => {
+                let i = self.method_tags().iter().position(|t| *t == tag).unwrap_or(0);
+                self.spec.factors.method[i].clone()
+            }
+            None => self.spec.method.clone(),
+        })
     }
 
     /// The design's name.
@@ -250,19 +280,27 @@ impl Design {
             Factor::Speed => f.speed.len(),
             Factor::Shutter => f.shutter.len(),
             Factor::Samples => f.samples.len(),
+            Factor::Method => f.method.len(),
         };
         n as u8 // validated to be at most 255
     }
 
-    /// Every stimulus id of the chosen views, ordered by view (mono first), then M, S, T, A.
+    /// Every stimulus id of the chosen views, ordered by view (mono first), then M, S, T, A
+    /// and the method levels in file order.
     pub fn ids(&self, views: Views) -> Vec<StimulusId> {
+        let methods: Vec<Option<MethodTag>> = match self.method_tags() {
+            tags if tags.is_empty() => vec![None],
+            tags => tags.into_iter().map(Some).collect(),
+        };
         let mut ids = Vec::new();
         for &view in views.list() {
             for material in 1..=self.level_count(Factor::Material) {
                 for speed in 1..=self.level_count(Factor::Speed) {
                     for shutter in 1..=self.level_count(Factor::Shutter) {
                         for samples in 1..=self.level_count(Factor::Samples) {
-                            ids.push(StimulusId { material, speed, shutter, samples, view });
+                            for &method in &methods {
+                                ids.push(StimulusId { material, speed, shutter, samples, method, view });
+                            }
                         }
                     }
                 }
@@ -271,8 +309,30 @@ impl Design {
         ids
     }
 
-    /// Checks that every level of `id` exists in this design.
+    /// Checks that every level of `id` exists in this design, and that it names a method
+    /// level exactly when the design has a method factor.
     pub fn check_id(&self, id: &StimulusId) -> Result<(), DesignError> {
+        let tags = self.method_tags();
+        let names = || tags.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(", ");
+        match id.method {
+            None if !tags.is_empty() => {
+                return Err(self.request(format!(
+                    "stimulus {id}: this design has a rendering-method factor; name a level after A ({})",
+                    names()
+                )));
+            }
+            Some(tag) if tags.is_empty() => {
+                return Err(self.request(format!(
+                    "stimulus {id}: this design has no rendering-method factor (`{tag}`); its method is `[method]`'s"
+                )));
+            }
+            Some(tag) if !tags.contains(&tag) => {
+                return Err(
+                    self.request(format!("stimulus {id}: the design has no method level `{tag}` (it has {})", names()))
+                );
+            }
+            _ => {}
+        }
         for factor in Factor::ALL {
             let count = self.level_count(factor);
             if id.level(factor) > count {
@@ -307,6 +367,14 @@ impl Design {
             speed: info(Factor::Speed, &f.speed[s].name, f.speed[s].degrees_per_second),
             shutter: info(Factor::Shutter, &f.shutter[t].name, f.shutter[t].fraction),
             samples: info(Factor::Samples, &f.samples[a].name, f64::from(preset.samples_per_pixel[a])),
+            method: match id.method {
+                Some(tag) => Some(LevelInfo {
+                    label: tag.to_string(),
+                    name: self.method_of(id)?.name.unwrap_or_else(|| tag.to_string()),
+                    value: f64::from(tag.code()),
+                }),
+                None => None,
+            },
         })
     }
 }

@@ -246,6 +246,10 @@ pub struct FactorsSpec {
     pub shutter: Vec<ShutterLevel>,
     /// A levels.
     pub samples: Vec<SamplesLevel>,
+    /// Rendering-method levels (optional): with them every id names its method level
+    /// (`M3-S3-T5-A1-guertin`) and `[method]` must be absent.
+    #[serde(default)]
+    pub method: Vec<MethodSpec>,
 }
 
 /// One `[presets.NAME]` table: overrides of the full design for smaller renders.

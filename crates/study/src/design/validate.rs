@@ -6,6 +6,8 @@
 use std::path::Path;
 
 use super::{Design, DesignError, EnvironmentKind, MaterialKind, MaterialLevel};
+use crate::ids::MethodTag;
+use crate::method::MethodSpec;
 use crate::scene::{Environment, Lighting, Material};
 
 impl Design {
@@ -118,6 +120,7 @@ impl Design {
                 return Err(self.invalid("factors.samples", Some(i), "samples_per_pixel", "must be at least 1"));
             }
         }
+        self.validate_methods()?;
         for (name, p) in &s.presets {
             let table = format!("presets.{name}");
             if p.width == Some(0) || p.height == Some(0) {
@@ -148,6 +151,73 @@ impl Design {
                         first + frames,
                         s.sequence.frames
                     ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// `[method]` or the `[[factors.method]]` levels: settings that apply to their method,
+    /// in range; at most [`MethodTag::MAX_VARIANTS`] levels of one method.
+    fn validate_methods(&self) -> Result<(), DesignError> {
+        let s = &self.spec;
+        let levels = &s.factors.method;
+        if !levels.is_empty() && s.method != MethodSpec::default() {
+            return Err(self.invalid(
+                "",
+                None,
+                "method",
+                "a design with `[[factors.method]]` levels names each level's method there; remove `[method]`",
+            ));
+        }
+        let tables: Vec<(&str, Option<usize>, &MethodSpec)> = if levels.is_empty() {
+            vec![("method", None, &s.method)]
+        } else {
+            levels.iter().enumerate().map(|(i, m)| ("factors.method", Some(i), m)).collect()
+        };
+        for (table, index, m) in tables {
+            for (key, applies) in m.settings() {
+                if !applies.contains(&m.kind) {
+                    let names: Vec<&str> = applies.iter().map(|k| k.name()).collect();
+                    return Err(self.invalid(
+                        table,
+                        index,
+                        key,
+                        format!("applies to {} only, not to `{}`", names.join(" and "), m.kind),
+                    ));
+                }
+            }
+            let count = |key: &str, v: Option<u32>, max: u32| match v {
+                Some(v) if v == 0 || v > max => {
+                    Err(self.invalid(table, index, key, format!("must lie in 1..={max}, found {v}")))
+                }
+                _ => Ok(()),
+            };
+            count("instants", m.instants, 4096)?;
+            count("samples_per_instant", m.samples_per_instant, 1 << 20)?;
+            count("taps", m.taps, 1024)?;
+            count("tile", m.tile, 256)?;
+            let real = |key: &str, v: Option<f64>, lo: f64, hi: f64| match v {
+                Some(v) if !(v.is_finite() && v >= lo && v <= hi) => {
+                    Err(self.invalid(table, index, key, format!("must lie in [{lo}, {hi}], found {v}")))
+                }
+                _ => Ok(()),
+            };
+            real("soft_z_extent", m.soft_z_extent, 1e-6, 1e3)?;
+            real("tau", m.tau, 0.0, 1e3)?;
+            real("kappa", m.kappa, 1e-3, 1e6)?;
+            real("eta", m.eta, 0.0, 1.0)?;
+            real("gamma", m.gamma, 0.0, 100.0)?;
+            real("phi", m.phi, 0.0, 1e3)?;
+        }
+        for kind in crate::Method::ALL {
+            let n = levels.iter().filter(|m| m.kind == kind).count();
+            if n > usize::from(MethodTag::MAX_VARIANTS) {
+                return Err(self.invalid(
+                    "factors",
+                    None,
+                    "method",
+                    format!("at most {} levels of `{kind}`, found {n}", MethodTag::MAX_VARIANTS),
                 ));
             }
         }

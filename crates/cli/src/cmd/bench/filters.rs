@@ -1,0 +1,82 @@
+//! `blurlab bench filters [--json] [--device gpu|cpu|auto]`: milliseconds per frame of the
+//! McGuire 2012 and Guertin 2014 filters at 1280x720 and N = 35 (`render::filter_timing`):
+//! GPU time from timestamp queries, the CPU twins beside it in the same run.
+
+use std::path::PathBuf;
+
+use render::filter_timing::{FilterTimingOptions, benchmark_gbuffer, run_filter_timing};
+
+use crate::cmd::BadInput;
+use crate::cmd::stimuli::{DeviceArg, load_design};
+
+/// Arguments.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Print the result as JSON (otherwise a short summary).
+    #[arg(long)]
+    json: bool,
+    /// Design file whose M3-S3-T5 benchmark frame is the G-buffer.
+    #[arg(long, default_value = "stimuli/navarro2011.toml")]
+    design: PathBuf,
+    /// Image width.
+    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: u32,
+    /// Taps N of both filters.
+    #[arg(long, default_value_t = 35, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    taps: u32,
+    /// Timed GPU rounds (after one warm-up).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..))]
+    rounds: u32,
+    /// Timed rounds of the CPU twins.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    cpu_rounds: u32,
+    /// `gpu` (a hardware adapter, else a software one), `auto` (hardware only, else none) or
+    /// `cpu` (the twins alone).
+    #[arg(long, value_enum, default_value_t = DeviceArg::Gpu)]
+    device: DeviceArg,
+}
+
+/// Runs the benchmark.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let design = load_design(&args.design)?;
+    let adapters = match args.device {
+        DeviceArg::Cpu => None,
+        DeviceArg::Auto => Some(gpu::AdapterChoice::HardwareOnly),
+        DeviceArg::Gpu => Some(gpu::AdapterChoice::HardwareThenSoftware),
+    };
+    let filters = match adapters.map(|a| gpu::acquire(a, &render::tracer::gpu::device::device_request())) {
+        None => None,
+        Some(Ok(ctx)) => Some(render::filters::GpuFilters::new(ctx)?),
+        Some(Err(_)) if matches!(args.device, DeviceArg::Auto) => None,
+        Some(Err(e)) => return Err(BadInput(format!("--device gpu: {e}")).into()),
+    };
+    let g = benchmark_gbuffer(&design, args.width, args.height)?;
+    let opts = FilterTimingOptions {
+        width: args.width,
+        height: args.height,
+        taps: args.taps,
+        rounds: args.rounds,
+        cpu_rounds: args.cpu_rounds,
+    };
+    let result = run_filter_timing(&g, filters.as_ref(), &opts)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&result)?);
+    } else {
+        for name in ["mcguire", "guertin"] {
+            let r = &result["filters"][name];
+            println!(
+                "{name}: {:.3} ms on the GPU ({}), {:.1} ms by the CPU twin, {}x{} N = {}",
+                r["gpu_ms_median"].as_f64().unwrap_or(f64::NAN),
+                result["adapter"]["name"].as_str().unwrap_or("none"),
+                r["cpu_twin_ms"].as_f64().unwrap_or(f64::NAN),
+                args.width,
+                args.height,
+                args.taps
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,126 @@
+//! The G-buffer the post-process filters read: one eye's radiance at one instant (the
+//! shutter's centre) from the tracer, and per pixel the view depth and the screen-space
+//! velocity of what the pixel's centre sees, computed analytically from the rolling motion.
+//!
+//! Velocities are pixels per exposure: where the visible material point moves between the
+//! shutter's opening and closing if it kept its velocity at the centre instant, projected by
+//! the eye's own camera (so the stereo eyes each get theirs). On the sphere that is the rolling
+//! velocity of the surface point (translation plus spin: twice the speed on top, rest at the
+//! contact). The floor is static, except in the sphere's shadow region, which moves with the
+//! sphere: floor points where the sphere covers at least [`SHADOW_FORM_FACTOR`] of the
+//! cosine-weighted sky get the sphere's translation, so the filters smear the contact shadow
+//! as the tracer's time integral does.
+
+use glam::{DVec2, DVec3};
+use study::scene::{Camera, FrameScene, Shutter};
+
+use crate::filters::{GBuffer, SKY_DEPTH};
+use crate::io::LinearImage;
+use crate::numeric::solve_quadratic;
+
+/// The share of a floor point's cosine-weighted sky that the sphere must hide for the point to
+/// move with the sphere's shadow. A sphere of radius r whose centre is at distance d from the
+/// point, seen at angle theta from the floor normal, covers the point-to-sphere form factor
+/// cos(theta) r^2 / d^2; 1 % reaches about 4.5 radii from the contact point.
+pub const SHADOW_FORM_FACTOR: f64 = 0.01;
+
+/// The centre instant of a frame's shutter.
+pub fn centre_time(shutter: &Shutter) -> f64 {
+    0.5 * (shutter.open + shutter.close)
+}
+
+/// `scene` with an instantaneous shutter at time `t` (what the tracer renders for one instant
+/// of an accumulation buffer or for a G-buffer).
+pub fn instant_scene(scene: &FrameScene, t: f64) -> FrameScene {
+    FrameScene { shutter: Shutter { open: t, close: t }, ..scene.clone() }
+}
+
+/// What a pixel's centre sees at one instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelGeometry {
+    /// View depth, metres ([`SKY_DEPTH`] for the sky).
+    pub depth: f32,
+    /// Screen-space displacement over the exposure, pixels (x right, y down).
+    pub velocity: [f32; 2],
+}
+
+/// The depth and velocity seen through the centre of pixel (`x`, `y`) of `camera` at `time`,
+/// for an exposure of `exposure` seconds.
+pub fn pixel_geometry(scene: &FrameScene, camera: &Camera, x: u32, y: u32, time: f64, exposure: f64) -> PixelGeometry {
+    let sky = PixelGeometry { depth: SKY_DEPTH, velocity: [0.0, 0.0] };
+    let dir = camera.ray_direction(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
+    let origin = camera.position;
+    let sphere = &scene.sphere;
+    let centre = sphere.centre_at(time);
+    let oc = origin - centre;
+    // |o + t d - c|^2 = r^2 with |d| = 1: t^2 + 2 (d.oc) t + |oc|^2 - r^2 = 0.
+    let sphere_t = solve_quadratic(1.0, 2.0 * dir.dot(oc), oc.length_squared() - sphere.radius * sphere.radius)
+        .and_then(|(t0, t1)| [t0, t1].into_iter().find(|&t| t > 0.0));
+    let normal = sphere.floor_normal;
+    let floor_t = {
+        let denom = dir.dot(normal);
+        let t = (scene.floor.height - origin.dot(normal)) / denom;
+        (denom < 0.0 && t.is_finite() && t > 0.0).then_some(t)
+    };
+    let (t, on_sphere) = match (sphere_t, floor_t) {
+        (Some(s), Some(f)) if f < s => (f, false),
+        (Some(s), _) => (s, true),
+        (None, Some(f)) => (f, false),
+        (None, None) => return sky,
+    };
+    let p = origin + dir * t;
+    let world_velocity = if on_sphere {
+        sphere.surface_velocity(p, time)
+    } else if shadow_form_factor(p, normal, centre, sphere.radius) >= SHADOW_FORM_FACTOR {
+        sphere.velocity
+    } else {
+        DVec3::ZERO
+    };
+    let velocity = match (
+        camera.project(p - world_velocity * (0.5 * exposure)),
+        camera.project(p + world_velocity * (0.5 * exposure)),
+    ) {
+        (Some(a), Some(b)) => b - a,
+        _ => DVec2::ZERO,
+    };
+    PixelGeometry { depth: (t * dir.dot(camera.forward)) as f32, velocity: [velocity.x as f32, velocity.y as f32] }
+}
+
+/// The form factor from a floor point `p` (normal `n`) to a sphere of radius `r` at `c`:
+/// the share of the point's cosine-weighted hemisphere the sphere hides.
+pub fn shadow_form_factor(p: DVec3, n: DVec3, c: DVec3, r: f64) -> f64 {
+    let to_centre = c - p;
+    let d2 = to_centre.length_squared();
+    if d2 <= r * r {
+        return 1.0;
+    }
+    let cos = to_centre.dot(n) / d2.sqrt();
+    (cos * r * r / d2).clamp(0.0, 1.0)
+}
+
+/// The G-buffer of each eye of `scene` at its shutter's centre, with the radiance `eyes`
+/// rendered at that instant (one image per eye, in the scene's order).
+pub fn gbuffers(scene: &FrameScene, eyes: Vec<LinearImage>) -> Vec<GBuffer> {
+    let time = centre_time(&scene.shutter);
+    let exposure = if scene.needs_time_sampling() { scene.shutter.close - scene.shutter.open } else { 0.0 };
+    scene
+        .views
+        .iter()
+        .zip(eyes)
+        .map(|(view, image)| {
+            let camera = &view.camera;
+            let (width, height) = (camera.width, camera.height);
+            let geometry: Vec<PixelGeometry> = (0..height)
+                .flat_map(|y| (0..width).map(move |x| (x, y)))
+                .map(|(x, y)| pixel_geometry(scene, camera, x, y, time, exposure))
+                .collect();
+            GBuffer {
+                width,
+                height,
+                color: image.pixels,
+                depth: geometry.iter().map(|g| g.depth).collect(),
+                velocity: geometry.iter().map(|g| g.velocity).collect(),
+            }
+        })
+        .collect()
+}
