@@ -106,6 +106,16 @@ pub struct MethodSpec {
     /// Guertin: phi, the jitter scale (the jitter is phi / N).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub phi: Option<f64>,
+    /// Analytic rasterizer: the per-pixel interval budget of the compression (4-64).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub intervals: Option<u32>,
+    /// Analytic rasterizer: the sphere's tessellation, segments around its equator (the
+    /// rings from pole to pole are half as many).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tessellation: Option<u32>,
+    /// Analytic rasterizer: lighting samples of each interval's one shading evaluation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lighting_samples: Option<u32>,
 }
 
 impl MethodSpec {
@@ -120,6 +130,7 @@ impl MethodSpec {
         const FILTERS: &[Method] = &[Method::Mcguire, Method::Guertin];
         const GUERTIN: &[Method] = &[Method::Guertin];
         const MCGUIRE: &[Method] = &[Method::Mcguire];
+        const ANALYTIC: &[Method] = &[Method::Analytic];
         let written = [
             ("instants", self.instants.is_some(), ACCUM),
             ("jitter", self.jitter.is_some(), ACCUM),
@@ -132,6 +143,9 @@ impl MethodSpec {
             ("eta", self.eta.is_some(), GUERTIN),
             ("gamma", self.gamma.is_some(), GUERTIN),
             ("phi", self.phi.is_some(), GUERTIN),
+            ("intervals", self.intervals.is_some(), ANALYTIC),
+            ("tessellation", self.tessellation.is_some(), ANALYTIC),
+            ("lighting_samples", self.lighting_samples.is_some(), ANALYTIC),
         ];
         written.into_iter().filter(|(_, set, _)| *set).map(|(k, _, m)| (k, m)).collect()
     }

@@ -197,6 +197,13 @@ impl Design {
             count("samples_per_instant", m.samples_per_instant, 1 << 20)?;
             count("taps", m.taps, 1024)?;
             count("tile", m.tile, 256)?;
+            count("tessellation", m.tessellation, 4096)?;
+            count("lighting_samples", m.lighting_samples, 1 << 16)?;
+            if let Some(v) = m.intervals
+                && !(4..=64).contains(&v)
+            {
+                return Err(self.invalid(table, index, "intervals", format!("must lie in 4..=64, found {v}")));
+            }
             let real = |key: &str, v: Option<f64>, lo: f64, hi: f64| match v {
                 Some(v) if !(v.is_finite() && v >= lo && v <= hi) => {
                     Err(self.invalid(table, index, key, format!("must lie in [{lo}, {hi}], found {v}")))
