@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The GPU tracer's measurement in one call: the benchmark (`bench tracer --device gpu`), then
+# The GPU measurements in one call: the tracer's benchmark (`bench tracer --device gpu`), the
+# post-process filters' (`bench filters --device gpu`: ms per 1280x720 frame at N = 35), then
 # a timed slice of the full study set (all five sample levels of M3-S3-T5, mono and stereo,
 # 120 frames each, PNGs written), rendered once independently and once with --nested.
 # Prints one JSON object on stdout; progress goes to stderr. Meant for a machine with a real
@@ -54,6 +55,9 @@ now() { date +%s.%N; }
 log "benchmark ($bin, spp $spp)"
 "$bin" bench tracer --device gpu --json --spp "$spp" --cpu-spp "$cpu_spp" --rounds "$rounds" >"$out/bench.json"
 
+log "filters (bench filters: McGuire 2012 and Guertin 2014 at 1280x720, N = 35)"
+"$bin" bench filters --device gpu --json --rounds "$((rounds * 10))" >"$out/filters.json"
+
 calc() { awk "BEGIN { printf \"%.3f\", $1 }"; }
 
 # The slice is one of the design's 45 (material, speed, shutter) cells with all its levels
@@ -86,6 +90,7 @@ cat <<EOF | tee "$out/result.json"
   "preset": "$preset",
   "binary": "$bin",
   "bench": $(cat "$out/bench.json"),
+  "filters": $(cat "$out/filters.json"),
   "slice": {
     "sequences": "M3-S3-T5, levels A1-A5, mono and stereo, every frame, PNGs written",
     "note": "full_set_bound_minutes: 45 cells times this one, the most expensive",

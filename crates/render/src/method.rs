@@ -81,6 +81,7 @@ pub fn guertin_params(spec: &MethodSpec, seed: u32) -> GuertinParams {
         eta: real(spec.eta, d.eta),
         gamma: real(spec.gamma, d.gamma),
         phi: real(spec.phi, d.phi),
+        tile_variance: spec.tile_variance.unwrap_or(d.tile_variance),
         seed,
         ..d
     }

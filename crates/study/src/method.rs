@@ -106,6 +106,10 @@ pub struct MethodSpec {
     /// Guertin: phi, the jitter scale (the jitter is phi / N).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub phi: Option<f64>,
+    /// Guertin: split the samples between the dominant and the centre velocity by the
+    /// tile's velocity variance (section 4.2; off in the paper's results but one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tile_variance: Option<bool>,
     /// Analytic rasterizer: the per-pixel interval budget of the compression (4-64).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub intervals: Option<u32>,
@@ -143,6 +147,7 @@ impl MethodSpec {
             ("eta", self.eta.is_some(), GUERTIN),
             ("gamma", self.gamma.is_some(), GUERTIN),
             ("phi", self.phi.is_some(), GUERTIN),
+            ("tile_variance", self.tile_variance.is_some(), GUERTIN),
             ("intervals", self.intervals.is_some(), ANALYTIC),
             ("tessellation", self.tessellation.is_some(), ANALYTIC),
             ("lighting_samples", self.lighting_samples.is_some(), ANALYTIC),

@@ -1,0 +1,88 @@
+//! The methods on a GPU `Renderer` (lavapipe in CI): the post-process filters run on the
+//! GPU over the GPU tracer's G-buffer and must equal their CPU twins applied to that same
+//! G-buffer (within 1/255); the accumulation buffer is the mean of the GPU tracer's instants;
+//! both record GPU time.
+
+mod common;
+
+use common::{L, flat, scene, study_camera, uniform};
+use glam::DVec3;
+use render::env::EnvironmentMap;
+use render::gbuffer::{centre_time, gbuffers, instant_scene};
+use render::io::LinearImage;
+use render::method::{filter_seed, guertin_params, mcguire_params};
+use render::{DeviceChoice, Renderer};
+use study::Method;
+use study::method::MethodSpec;
+use study::scene::{FrameScene, Shutter};
+
+fn moving_scene() -> FrameScene {
+    let mut s = scene(study_camera(64, 36), flat(0.6), uniform(L), 4);
+    s.sphere.velocity = DVec3::new(2.0, 0.0, 0.0);
+    s.shutter = Shutter { open: -1.0 / 60.0, close: 1.0 / 60.0 };
+    s
+}
+
+fn gpu_renderer<'e>(test: &str, env: &'e EnvironmentMap) -> Option<Renderer<'e>> {
+    match Renderer::open(DeviceChoice::Gpu, env) {
+        Ok(r) => Some(r),
+        Err(e) => {
+            gpu::skip_or_fail(test, &e);
+            None
+        }
+    }
+}
+
+fn split(image: &LinearImage) -> Vec<LinearImage> {
+    vec![image.clone()]
+}
+
+#[test]
+fn gpu_filters_over_the_gpu_gbuffer_equal_their_cpu_twins() {
+    let s = moving_scene();
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let Some(renderer) = gpu_renderer("gpu_filters_over_the_gpu_gbuffer_equal_their_cpu_twins", &env) else {
+        return;
+    };
+    let centre = instant_scene(&s, centre_time(&s.shutter));
+    let traced = renderer.render(&MethodSpec::of(Method::Tracer), &centre).unwrap();
+    let g = gbuffers(&s, split(&traced.image)).remove(0);
+    assert!(g.velocity.iter().any(|v| v[0] > 1.0), "the sphere moves in the G-buffer");
+    let seed = filter_seed(s.views[0].seed);
+    for kind in [Method::Mcguire, Method::Guertin] {
+        let spec = MethodSpec::of(kind);
+        let frame = renderer.render(&spec, &s).unwrap();
+        let twin = match kind {
+            Method::Mcguire => render::filters::mcguire_cpu(&g, &mcguire_params(&spec, seed)),
+            _ => render::filters::guertin_cpu(&g, &guertin_params(&spec, seed)),
+        };
+        let worst = frame
+            .image
+            .pixels
+            .iter()
+            .zip(&twin)
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
+            .fold(0.0f32, f32::max);
+        assert!(worst <= 1.0 / 255.0, "{kind}: GPU frame and CPU twin differ by {worst}");
+        assert!(frame.image != traced.image, "{kind} blurs the moving sphere");
+        assert!(frame.gpu_seconds.is_some_and(|t| t > 0.0), "{kind}: GPU time recorded");
+    }
+}
+
+#[test]
+fn gpu_accumulation_buffer_is_the_mean_of_the_gpu_instants() {
+    let s = moving_scene();
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let Some(renderer) = gpu_renderer("gpu_accumulation_buffer_is_the_mean_of_the_gpu_instants", &env) else {
+        return;
+    };
+    let spec = MethodSpec { instants: Some(4), ..MethodSpec::of(Method::Accum) };
+    let frame = renderer.render(&spec, &s).unwrap();
+    let instants: Vec<Vec<LinearImage>> = render::accum::instant_scenes(&s, &spec)
+        .iter()
+        .map(|i| split(&renderer.render(&MethodSpec::of(Method::Tracer), i).unwrap().image))
+        .collect();
+    assert_eq!(instants.len(), 4);
+    assert_eq!(frame.image, render::accum::average(&instants).remove(0));
+    assert_eq!(frame.camera_samples, 4 * 64 * 36);
+}
