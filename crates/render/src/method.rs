@@ -83,7 +83,6 @@ pub fn guertin_params(spec: &MethodSpec, seed: u32) -> GuertinParams {
         phi: real(spec.phi, d.phi),
         tile_variance: spec.tile_variance.unwrap_or(d.tile_variance),
         seed,
-        ..d
     }
 }
 
