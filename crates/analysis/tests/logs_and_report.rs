@@ -215,12 +215,8 @@ fn a_set_other_than_the_logs_or_with_an_altered_manifest_is_refused() {
     let (mono, _, set) = results_with_mono_and_stereo(dir.path());
     // Another set: one manifest's hash differs (another design's render of it).
     let other = dir.path().join("other");
-    let ids: Vec<StimulusId> = study::manifest::SetIndex::read(&set.join("index.json"))
-        .unwrap()
-        .sequences
-        .iter()
-        .map(|e| e.id)
-        .collect();
+    let ids: Vec<StimulusId> =
+        study::manifest::SetIndex::read(&set.join("index.json")).unwrap().sequences.iter().map(|e| e.id).collect();
     write_set(&other, &ids);
     let manifest = other.join(ids[0].to_string()).join("manifest.json");
     let text = std::fs::read_to_string(&manifest).unwrap().replace("\"master_seed\": 1", "\"master_seed\": 2");

@@ -173,7 +173,8 @@ fn check_size(width: u64, height: u64) -> Result<(), IoError> {
 /// headers before the pixels are read.
 pub fn decode_exr(bytes: &[u8]) -> Result<LinearImage, IoError> {
     use exr::prelude::*;
-    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(|e| IoError::Exr(e.to_string()))?;
+    let meta =
+        exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(|e| IoError::Exr(e.to_string()))?;
     for header in &meta.headers {
         let size = header.layer_size;
         check_size(size.width() as u64, size.height() as u64)?;
@@ -238,7 +239,12 @@ mod tests {
             for decoded in [decode_exr(bytes), decode_hdr(bytes)].into_iter().flatten() {
                 let again = decode_exr(&encode_exr(&decoded).unwrap()).unwrap();
                 assert_eq!((again.width, again.height), (decoded.width, decoded.height));
-                let same = again.pixels.iter().flatten().zip(decoded.pixels.iter().flatten()).all(|(a, b)| a.to_bits() == b.to_bits());
+                let same = again
+                    .pixels
+                    .iter()
+                    .flatten()
+                    .zip(decoded.pixels.iter().flatten())
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
                 assert!(same);
             }
         }

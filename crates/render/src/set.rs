@@ -667,13 +667,8 @@ impl<'a> SetFolder<'a> {
     /// Checks that the folder holds nothing of another design, preset or sampling mode, and
     /// keeps a copy of the design file in it.
     fn open(root: &Path, design: &'a Design, preset: &'a Preset, sampling: Sampling) -> Result<Self, SetError> {
-        let mut folder = SetFolder {
-            root: root.to_owned(),
-            design,
-            preset,
-            sampling,
-            verified: std::collections::HashSet::new(),
-        };
+        let mut folder =
+            SetFolder { root: root.to_owned(), design, preset, sampling, verified: std::collections::HashSet::new() };
         let index_path = root.join("index.json");
         if index_path.exists() {
             let old = match SetIndex::read(&index_path) {

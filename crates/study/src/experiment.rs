@@ -299,7 +299,12 @@ impl ExperimentDefinition {
             return Err(bad("pairs", None, "repeats", "must be 1 or more".into()));
         }
         if pairs.repeats > MAX_REPEATS {
-            return Err(bad("pairs", None, "repeats", format!("{} is above the limit of {MAX_REPEATS}", pairs.repeats)));
+            return Err(bad(
+                "pairs",
+                None,
+                "repeats",
+                format!("{} is above the limit of {MAX_REPEATS}", pairs.repeats),
+            ));
         }
         let n = stimuli.len() as u64;
         let trials = n * (n - 1) / 2 * u64::from(pairs.repeats);

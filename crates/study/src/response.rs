@@ -542,7 +542,10 @@ mod tests {
         assert!(err(&skipped).contains("line 13: trial 5 where trial 3 was expected"));
         let changed = format!("{valid}# seed: 99\n");
         let e = err(&changed);
-        assert!(e.contains("line 13: header key `seed` is repeated among the rows as `99`, and is `seed-value` on line 6"), "{e}");
+        assert!(
+            e.contains("line 13: header key `seed` is repeated among the rows as `99`, and is `seed-value` on line 6"),
+            "{e}"
+        );
         let twice = valid.replacen("# seed: seed-value\n", "# seed: seed-value\n# seed: 7\n", 1);
         assert!(err(&twice).contains("line 7: header key `seed` is `7` here and `seed-value` on line 6"));
         let session = valid.replace("# session: 1\n", "# session: one\n");

@@ -43,10 +43,7 @@ pub fn key_at(text: &str, offset: usize) -> Option<String> {
     let name = match head.rfind('=') {
         Some(eq) => {
             let before = head[..eq].trim_end();
-            let start = before
-                .char_indices()
-                .rfind(|&(_, c)| !is_key_char(c))
-                .map_or(0, |(i, c)| i + c.len_utf8());
+            let start = before.char_indices().rfind(|&(_, c)| !is_key_char(c)).map_or(0, |(i, c)| i + c.len_utf8());
             before[start..].to_owned()
         }
         None => line[upto.min(line.len())..].chars().take_while(|&c| is_key_char(c)).collect(),

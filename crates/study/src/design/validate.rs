@@ -58,7 +58,13 @@ impl Design {
 
     /// Image size and frame count within the limits above (checked before anything is
     /// allocated); the error names the key and the limit.
-    fn limits(&self, table: &str, width: Option<u32>, height: Option<u32>, frames: Option<u32>) -> Result<(), DesignError> {
+    fn limits(
+        &self,
+        table: &str,
+        width: Option<u32>,
+        height: Option<u32>,
+        frames: Option<u32>,
+    ) -> Result<(), DesignError> {
         for (key, v) in [("width", width), ("height", height)] {
             if let Some(v) = v.filter(|&v| v > MAX_SIDE) {
                 return Err(self.invalid(table, None, key, format!("{v} pixels is above the limit of {MAX_SIDE}")));
