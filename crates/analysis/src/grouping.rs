@@ -33,6 +33,9 @@ pub struct CriticalRange {
 
 /// Computes `W_{t,alpha}`, `R_c` and `ceil(R_c)` for `t` stimuli and `m` judges.
 pub fn critical_range(t: usize, judges: u32, alpha: f64) -> Result<CriticalRange, SrangeError> {
+    if judges == 0 {
+        return Err(SrangeError::NoJudges);
+    }
     let w = srange_quantile(t, alpha)?;
     let rc = (w * (f64::from(judges) * t as f64).sqrt() + 0.5) / 2.0;
     // Guard against a value a hair above an integer from rounding: R_c is irrational in general.

@@ -29,6 +29,14 @@ pub enum ReportError {
     /// The manifest could not be read.
     #[error(transparent)]
     Manifest(#[from] study::manifest::ManifestError),
+    /// The set given with `--manifest` is damaged or is not the one the logs were run with.
+    #[error("{}: {message}", path.display())]
+    Set {
+        /// The set's index or a manifest.
+        path: PathBuf,
+        /// What differs.
+        message: String,
+    },
     /// A figure failed.
     #[error(transparent)]
     Plot(#[from] PlotError),
@@ -61,18 +69,50 @@ pub struct Report {
 
 /// Render costs of every sequence in a set (`SET` folder or its `index.json`).
 pub fn load_costs(set: &Path) -> Result<BTreeMap<StimulusId, Cost>, ReportError> {
+    load_set(set).map(|s| s.costs)
+}
+
+/// A set read for the analysis: costs and the hashes logs record for it.
+pub struct LoadedSet {
+    /// The index file.
+    pub index_path: PathBuf,
+    /// Render cost per sequence.
+    pub costs: BTreeMap<StimulusId, Cost>,
+    /// Content hash ([`SetIndex::content_sha256`]) over its verified manifests.
+    pub content_sha256: String,
+    /// SHA-256 of its index.json (what logs of earlier versions recorded).
+    pub index_sha256: String,
+}
+
+/// Reads a set (`SET` folder or its `index.json`), checking every manifest against the hash
+/// the index records.
+pub fn load_set(set: &Path) -> Result<LoadedSet, ReportError> {
     let (root, index_path) = if set.is_dir() {
         (set.to_owned(), set.join("index.json"))
     } else {
         (set.parent().unwrap_or(Path::new(".")).to_owned(), set.to_owned())
     };
     let index = SetIndex::read(&index_path)?;
+    let index_sha256 = study::fsio::sha256_file(&index_path)
+        .map_err(|source| study::manifest::ManifestError::Io { path: index_path.clone(), source })?;
     let mut costs = BTreeMap::new();
     for entry in &index.sequences {
-        let manifest = SequenceManifest::read(&root.join(&entry.folder).join("manifest.json"))?;
+        let path = root.join(&entry.folder).join("manifest.json");
+        let actual = study::fsio::sha256_file(&path)
+            .map_err(|source| study::manifest::ManifestError::Io { path: path.clone(), source })?;
+        if actual != entry.manifest_sha256 {
+            return Err(ReportError::Set {
+                path,
+                message: format!(
+                    "sequence {}: the manifest's sha256 is {actual}, and index.json records {}: the set was altered or damaged",
+                    entry.id, entry.manifest_sha256
+                ),
+            });
+        }
+        let manifest = SequenceManifest::read(&path)?;
         costs.insert(entry.id, Cost { wall_seconds: manifest.wall_seconds(), cpu_seconds: manifest.cpu_seconds() });
     }
-    Ok(costs)
+    Ok(LoadedSet { content_sha256: index.content_sha256(), index_sha256, costs, index_path })
 }
 
 /// Reads the logs under `results`, analyses every experiment and builds the report.
@@ -82,15 +122,29 @@ pub fn build_report(
     experiments_dir: Option<&Path>,
     options: AnalysisOptions,
 ) -> Result<Report, ReportError> {
-    let costs = match manifest {
-        Some(set) => load_costs(set)?,
-        None => BTreeMap::new(),
-    };
+    let set = manifest.map(load_set).transpose()?;
+    let costs = set.as_ref().map(|s| s.costs.clone()).unwrap_or_default();
     let load = LoadOptions {
         experiments_dir: experiments_dir.map(Path::to_owned),
         known_stimuli: manifest.map(|_| costs.keys().copied().collect()),
     };
     let data = load_experiments(results, &load)?;
+    // The costs must come from the set the participants saw.
+    if let Some(set) = &set {
+        for d in &data {
+            let logged = d.stimulus_set_sha256.as_str();
+            if logged != set.content_sha256 && logged != set.index_sha256 {
+                let log = d.sessions.first().map_or_else(String::new, |s| s.path.display().to_string());
+                return Err(ReportError::Set {
+                    path: set.index_path.clone(),
+                    message: format!(
+                        "the logs of experiment `{}` ({log}, ...) were run with stimulus set {logged}, and this set is {} (index.json {}): it is another set or another design's; give the set the sessions showed",
+                        d.name, set.content_sha256, set.index_sha256
+                    ),
+                });
+            }
+        }
+    }
     let experiments: Vec<ExperimentReport> = data.iter().map(|d| analyze_experiment(d, &costs, options)).collect();
     let mut pairs = Vec::new();
     for e in &experiments {

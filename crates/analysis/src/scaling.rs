@@ -25,12 +25,15 @@ use crate::srange::{normal_pdf, normal_sf};
 /// `sigma` of the Case V model in JOD units: `1 / Phi^{-1}(0.75)`.
 pub const JOD_SIGMA: f64 = 1.482_602_218_505_602;
 
+/// The most bootstrap resamples (`analyze --bootstrap` refuses more).
+pub const MAX_RESAMPLES: usize = 100_000;
+
 /// Options of the scaling.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ScaleOptions {
     /// Standard deviation of the Gaussian prior on each score, in JOD units.
     pub prior_sd: f64,
-    /// Bootstrap resamples (0 for none).
+    /// Bootstrap resamples (0 for none; at most [`MAX_RESAMPLES`], more are clamped).
     pub resamples: usize,
     /// Seed of the bootstrap's PCG64 generator.
     pub seed: u64,
@@ -187,6 +190,7 @@ pub fn scale_with_bootstrap(total: &PreferenceMatrix, judges: &[PreferenceMatrix
     let t = total.t();
     let (scores, iterations) = fit_case_v(total, options.prior_sd, None);
     let (mut lower, mut upper) = (Vec::new(), Vec::new());
+    let options = ScaleOptions { resamples: options.resamples.min(MAX_RESAMPLES), ..options };
     if options.resamples > 0 && !judges.is_empty() {
         let mut rng = Pcg64::seed_from_u64(options.seed);
         let mut samples: Vec<Vec<f64>> = vec![Vec::with_capacity(options.resamples); t];

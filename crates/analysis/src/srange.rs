@@ -26,10 +26,21 @@ pub enum SrangeError {
     /// `t` must be at least 2.
     #[error("the number of stimuli t is {0}, expected at least 2")]
     TooFewGroups(usize),
-    /// `alpha` must lie strictly between 0 and 1.
-    #[error("the significance level alpha is {0}, expected a number strictly between 0 and 1")]
+    /// `t` beyond what the quadrature is checked for.
+    #[error("the number of stimuli t is {0}, above the limit of {MAX_T}")]
+    TooManyGroups(usize),
+    /// `alpha` must lie in [`MIN_ALPHA`, 1 - `MIN_ALPHA`].
+    #[error("the significance level alpha is {0}, expected a number from 1e-12 to 1 - 1e-12")]
     BadAlpha(f64),
+    /// A critical range needs at least one judge.
+    #[error("the number of judges is 0, expected at least 1")]
+    NoJudges,
 }
+
+/// The largest `t` accepted (quantiles are checked up to it in the tests).
+pub const MAX_T: usize = 1000;
+/// The smallest `alpha` (and `1 - alpha`) accepted: where the quadrature's accuracy holds.
+pub const MIN_ALPHA: f64 = 1e-12;
 
 const LOWER: f64 = -9.0;
 const UPPER: f64 = 9.0;
@@ -159,12 +170,16 @@ pub fn srange_sf(t: usize, w: f64) -> f64 {
 /// variables, i.e. the `w` with `P(R > w) = alpha` (the studentized range quantile with
 /// infinite degrees of freedom, as tabulated by Pearson and Hartley). Works for any
 /// `t >= 2` and `alpha` in `(0, 1)`; accurate to better than 1e-6 for
-/// `1e-12 <= alpha <= 1 - 1e-12` and `t <= 100` (tested against scipy).
+/// `1e-12 <= alpha <= 1 - 1e-12` and `t <= 100` (tested against scipy), and
+/// self-consistent (`P(R > W) = alpha`) up to [`MAX_T`]; other `t` and `alpha` are errors.
 pub fn srange_quantile(t: usize, alpha: f64) -> Result<f64, SrangeError> {
     if t < 2 {
         return Err(SrangeError::TooFewGroups(t));
     }
-    if !(alpha > 0.0 && alpha < 1.0) {
+    if t > MAX_T {
+        return Err(SrangeError::TooManyGroups(t));
+    }
+    if !(MIN_ALPHA..=1.0 - MIN_ALPHA).contains(&alpha) {
         return Err(SrangeError::BadAlpha(alpha));
     }
     if t == 2 {
@@ -225,6 +240,29 @@ pub fn normal_upper_quantile(p: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_accepted_t_and_alpha_gives_the_quantile_and_others_are_errors() {
+        for t in [2, 3, 7, 100, 333, MAX_T] {
+            for alpha in [MIN_ALPHA, 1e-6, 0.01, 0.5, 0.99, 1.0 - MIN_ALPHA] {
+                let w = srange_quantile(t, alpha).unwrap();
+                assert!(w.is_finite() && w > 0.0, "t {t} alpha {alpha}: {w}");
+                let (sf, cdf) = (srange_sf(t, w), srange_cdf(t, w));
+                // The lower tail is solved to an absolute residual of 1e-13.
+                let close = if alpha <= 0.5 {
+                    (sf / alpha - 1.0).abs() < 1e-5
+                } else {
+                    (cdf - (1.0 - alpha)).abs() < 2e-13 + 1e-5 * (1.0 - alpha)
+                };
+                assert!(close, "t {t} alpha {alpha}: W {w}, P(R > W) {sf}, P(R <= W) {cdf}");
+            }
+        }
+        assert_eq!(srange_quantile(MAX_T + 1, 0.01), Err(SrangeError::TooManyGroups(MAX_T + 1)));
+        assert_eq!(srange_quantile(usize::MAX, 0.01), Err(SrangeError::TooManyGroups(usize::MAX)));
+        for alpha in [0.0, 1e-300, 5e-13, 1.0, f64::NAN, f64::INFINITY, -0.5] {
+            assert!(matches!(srange_quantile(5, alpha), Err(SrangeError::BadAlpha(_))), "{alpha}");
+        }
+    }
 
     /// Reference values from scipy 1.x `studentized_range.isf(alpha, t, df=inf)`.
     const SCIPY: &[(usize, f64, f64)] = &[

@@ -137,8 +137,8 @@ fn write_set(dir: &Path, stimuli: &[StimulusId]) {
                 .collect(),
         };
         let text = serde_json::to_string_pretty(&manifest).unwrap();
-        std::fs::write(dir.join(&folder).join("manifest.json"), text).unwrap();
-        entries.push(IndexEntry { id: *s, folder, manifest_sha256: "m".into() });
+        std::fs::write(dir.join(&folder).join("manifest.json"), &text).unwrap();
+        entries.push(IndexEntry { id: *s, folder, manifest_sha256: study::fsio::sha256_hex(text.as_bytes()) });
     }
     let index = SetIndex {
         format: study::manifest::INDEX_FORMAT.into(),
@@ -193,7 +193,47 @@ fn results_with_mono_and_stereo(root: &Path) -> (PathBuf, PathBuf, PathBuf) {
     let set = root.join("set");
     let all: Vec<StimulusId> = sm.iter().chain(&ss).copied().collect();
     write_set(&set, &all);
+    stamp_set_hash(&[&mono, &stereo], &set);
     (mono, stereo, set)
+}
+
+/// Records the set's content hash in every log under `dirs`, as the runner does.
+fn stamp_set_hash(dirs: &[&Path], set: &Path) {
+    let hash = study::manifest::SetIndex::read(&set.join("index.json")).unwrap().content_sha256();
+    for dir in dirs {
+        for log in analysis::logs::find_logs(dir).unwrap() {
+            let text = std::fs::read_to_string(&log).unwrap();
+            let text = text.replace("# stimulus_set_sha256: x\n", &format!("# stimulus_set_sha256: {hash}\n"));
+            std::fs::write(&log, text).unwrap();
+        }
+    }
+}
+
+#[test]
+fn a_set_other_than_the_logs_or_with_an_altered_manifest_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mono, _, set) = results_with_mono_and_stereo(dir.path());
+    // Another set: one manifest's hash differs (another design's render of it).
+    let other = dir.path().join("other");
+    let ids: Vec<StimulusId> =
+        study::manifest::SetIndex::read(&set.join("index.json")).unwrap().sequences.iter().map(|e| e.id).collect();
+    write_set(&other, &ids);
+    let manifest = other.join(ids[0].to_string()).join("manifest.json");
+    let text = std::fs::read_to_string(&manifest).unwrap().replace("\"master_seed\": 1", "\"master_seed\": 2");
+    std::fs::write(&manifest, &text).unwrap();
+    let mut index = study::manifest::SetIndex::read(&other.join("index.json")).unwrap();
+    index.sequences[0].manifest_sha256 = study::fsio::sha256_hex(text.as_bytes());
+    std::fs::write(other.join("index.json"), serde_json::to_string_pretty(&index).unwrap()).unwrap();
+    expect_error(
+        std::slice::from_ref(&mono),
+        Some(&other),
+        &["other/index.json", "the logs of experiment `mono-3-interactions`", "were run with stimulus set"],
+    );
+    // A manifest altered after the index was written.
+    let manifest = set.join(ids[1].to_string()).join("manifest.json");
+    let text = std::fs::read_to_string(&manifest).unwrap().replace("\"fps\": 30.0", "\"fps\": 25.0");
+    std::fs::write(&manifest, text).unwrap();
+    expect_error(std::slice::from_ref(&mono), Some(&set), &[&format!("sequence {}: the manifest's sha256", ids[1])]);
 }
 
 #[test]

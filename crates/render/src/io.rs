@@ -153,9 +153,32 @@ pub fn encode_exr(image: &LinearImage) -> Result<Vec<u8>, IoError> {
     Ok(cursor.into_inner())
 }
 
+/// The largest side of an image file read (environment maps), in pixels.
+pub const MAX_DECODE_SIDE: u32 = 16384;
+/// The most pixels of an image file read: 8192 x 4096.
+pub const MAX_DECODE_PIXELS: u64 = 1 << 25;
+
+/// Checks an image size declared by a file before anything of that size is allocated.
+fn check_size(width: u64, height: u64) -> Result<(), IoError> {
+    if width > u64::from(MAX_DECODE_SIDE) || height > u64::from(MAX_DECODE_SIDE) || width * height > MAX_DECODE_PIXELS {
+        return Err(IoError::Image(format!(
+            "the file declares {width}x{height} pixels, above the limit of {MAX_DECODE_SIDE} per side and {MAX_DECODE_PIXELS} in all"
+        )));
+    }
+    Ok(())
+}
+
 /// Decodes the first RGB(A) layer of an EXR file into linear radiance (alpha ignored).
+/// Sizes above [`MAX_DECODE_SIDE`] or [`MAX_DECODE_PIXELS`] are errors, found from the
+/// headers before the pixels are read.
 pub fn decode_exr(bytes: &[u8]) -> Result<LinearImage, IoError> {
     use exr::prelude::*;
+    let meta =
+        exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(|e| IoError::Exr(e.to_string()))?;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        check_size(size.width() as u64, size.height() as u64)?;
+    }
     let img = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -173,8 +196,12 @@ pub fn decode_exr(bytes: &[u8]) -> Result<LinearImage, IoError> {
     Ok(img.layer_data.channel_data.pixels)
 }
 
-/// Decodes a Radiance HDR (RGBE) file into linear radiance.
+/// Decodes a Radiance HDR (RGBE) file into linear radiance; sizes as for [`decode_exr`].
 pub fn decode_hdr(bytes: &[u8]) -> Result<LinearImage, IoError> {
+    use image::ImageDecoder;
+    let decoder = image::codecs::hdr::HdrDecoder::new(Cursor::new(bytes)).map_err(|e| IoError::Image(e.to_string()))?;
+    let (w, h) = decoder.dimensions();
+    check_size(u64::from(w), u64::from(h))?;
     let reader = image::ImageReader::with_format(Cursor::new(bytes), image::ImageFormat::Hdr);
     let img = reader.decode().map_err(|e| IoError::Image(e.to_string()))?.into_rgb32f();
     let (width, height) = img.dimensions();
@@ -194,6 +221,85 @@ mod tests {
             }
         }
         img
+    }
+
+    /// Fuzzing of the environment-map decoders (`BLURLAB_FUZZ_CASES` cases, default 64):
+    /// arbitrary bytes and mutated valid files never panic, and a decoded image encodes and
+    /// decodes to itself.
+    mod fuzz {
+        use super::*;
+        use proptest::prelude::*;
+
+        fn config() -> ProptestConfig {
+            let cases = std::env::var("BLURLAB_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(64);
+            ProptestConfig { cases, failure_persistence: None, ..ProptestConfig::default() }
+        }
+
+        fn check(bytes: &[u8]) {
+            for decoded in [decode_exr(bytes), decode_hdr(bytes)].into_iter().flatten() {
+                let again = decode_exr(&encode_exr(&decoded).unwrap()).unwrap();
+                assert_eq!((again.width, again.height), (decoded.width, decoded.height));
+                let same = again
+                    .pixels
+                    .iter()
+                    .flatten()
+                    .zip(decoded.pixels.iter().flatten())
+                    .all(|(a, b)| a.to_bits() == b.to_bits());
+                assert!(same);
+            }
+        }
+
+        fn mutated(valid: &[u8], at: usize, len: usize, with: &[u8], cut: bool) -> Vec<u8> {
+            let mut v = valid.to_vec();
+            let at = at % (v.len() + 1);
+            if cut {
+                v.truncate(at);
+            } else {
+                let end = (at + len % 8).min(v.len());
+                v.splice(at..end, with.iter().copied());
+            }
+            v
+        }
+
+        fn hdr_file() -> Vec<u8> {
+            let mut v = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 4\n".to_vec();
+            v.extend(std::iter::repeat_n([128u8, 64, 32, 129], 8).flatten());
+            v
+        }
+
+        proptest! {
+            #![proptest_config(config())]
+
+            #[test]
+            fn environment_maps(
+                bytes in proptest::collection::vec(any::<u8>(), 0..256),
+                at in any::<usize>(),
+                len in any::<usize>(),
+                with in proptest::collection::vec(any::<u8>(), 0..8),
+                cut in any::<bool>(),
+            ) {
+                check(&bytes);
+                check(&mutated(&encode_exr(&gradient(4, 2)).unwrap(), at, len, &with, cut));
+                check(&mutated(&hdr_file(), at, len, &with, cut));
+            }
+        }
+    }
+
+    #[test]
+    fn oversized_image_files_are_errors_before_allocation() {
+        // An HDR header declaring 100000 x 100000 pixels and no data.
+        let hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n";
+        let e = decode_hdr(hdr).unwrap_err().to_string();
+        assert!(e.contains("100000x100000") && e.contains("above the limit"), "{e}");
+        // A valid EXR whose data window is patched to 100000 x 100000.
+        let mut bytes = encode_exr(&gradient(4, 2)).unwrap();
+        let key = b"dataWindow\0box2i\0";
+        let at = bytes.windows(key.len()).position(|w| w == key).unwrap() + key.len() + 4;
+        for (k, v) in [0i32, 0, 99_999, 99_999].iter().enumerate() {
+            bytes[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+        }
+        let e = decode_exr(&bytes).unwrap_err().to_string();
+        assert!(e.contains("100000x100000") && e.contains("above the limit"), "{e}");
     }
 
     #[test]

@@ -2,11 +2,20 @@
 //! the set's `index.json`, resume, and progress display.
 //!
 //! Crash safety: every file is written atomically; a sequence's frames come first and its
-//! manifest last, so a manifest exists only for a sequence whose frames are all on disk; the
-//! index is rewritten after each sequence and lists only sequences whose manifest it has
-//! hashed. Before a sequence is re-rendered it leaves the index and loses its manifest, so
-//! a kill at any moment leaves no incomplete sequence marked complete. `--resume` trusts a
-//! sequence only when its manifest matches the request and every frame's hash verifies.
+//! manifest last, so a manifest exists only for a sequence whose frames are all on disk.
+//! Before a sequence is re-rendered it loses its manifest, so a kill at any moment leaves no
+//! incomplete sequence marked complete. `--resume` trusts a sequence only when its manifest
+//! matches the request and every frame's hash verifies.
+//!
+//! Several writers: the manifests are the truth and `index.json` is rebuilt from them (those
+//! of this design, preset and sampling mode whose files verify) after each sequence, and
+//! rewritten until a fresh rebuild equals the file on disk, so renders into one folder from
+//! several processes or machines all keep every completed sequence without relying on
+//! locks. A process takes `render.lock` in a sequence's folder (`study::lock`) while it
+//! renders it, and leaves a sequence locked by another live process to that process. A
+//! folder holding sequences of another version of the design (its `design_sha256`), another
+//! preset or sampling mode is refused, naming the design keys that differ from the folder's
+//! `design.toml` copy.
 
 use std::io::{self, IsTerminal, Write as _};
 use std::path::{Path, PathBuf};
@@ -161,6 +170,8 @@ pub struct SetReport {
     pub wall_seconds: f64,
     /// The device that rendered, as manifests name it.
     pub device: String,
+    /// Sequences another live process was rendering, left to it, and that process.
+    pub left_to_others: Vec<(StimulusId, String)>,
 }
 
 /// The file name of frame `index`.
@@ -284,10 +295,9 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
     }
     let out = &request.out;
     std::fs::create_dir_all(out).map_err(io_err(out, "cannot create the output folder"))?;
-    let index_path = out.join("index.json");
-    let mut index = load_index(&index_path, design, preset, request.sampling)?;
-    // Writing the index first finds an unwritable folder before any rendering.
-    write_index(writer, &index_path, &mut index)?;
+    let mut folder = SetFolder::open(out, design, preset, request.sampling)?;
+    // Publishing the index first finds an unwritable folder before any rendering.
+    folder.publish(writer)?;
     let env = EnvironmentMap::from_lighting(&design.lighting)?;
     let renderer = Renderer::open(request.device, &env)?;
 
@@ -298,12 +308,40 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
     let result = (|| {
         for group in streams(&request.ids, request.sampling) {
             let group_started = Instant::now();
+            // One writer per sequence: a sequence another live process is rendering is left
+            // to it (its manifest joins the index when that process finishes it).
+            let mut locks = Vec::new();
+            let mut busy = None;
+            for id in &group {
+                let seq = out.join(id.to_string());
+                std::fs::create_dir_all(&seq).map_err(io_err(&seq, "cannot create the sequence folder"))?;
+                match study::lock::LockFile::acquire(&seq.join(SEQUENCE_LOCK)) {
+                    Ok(lock) => locks.push(lock),
+                    Err(study::lock::LockError::Held { holder, .. }) => {
+                        busy = Some(holder);
+                        break;
+                    }
+                    Err(study::lock::LockError::Io { path, source }) => {
+                        return Err(SetError::Io { path, action: "cannot take the sequence's lock", source });
+                    }
+                }
+            }
+            if let Some(holder) = busy {
+                drop(locks);
+                for id in group {
+                    progress.advance(frame_cost(preset, &id) * u64::from(preset.frames));
+                    done += 1;
+                    progress.finished(done, &id, &format!("left to the process rendering it ({holder})"), 0.0);
+                    report.left_to_others.push((id, holder.to_string()));
+                }
+                continue;
+            }
             let mut todo = Vec::new();
             for id in group {
-                let folder = out.join(id.to_string());
+                let seq = out.join(id.to_string());
                 if request.resume
                     && let Some(manifest_sha) = verify_sequence(
-                        &folder,
+                        &seq,
                         design,
                         preset,
                         &id,
@@ -312,8 +350,8 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
                         request.sampling,
                     )
                 {
-                    upsert(&mut index, &id, &manifest_sha);
-                    write_index(writer, &index_path, &mut index)?;
+                    folder.verified.insert((id, manifest_sha));
+                    folder.publish(writer)?;
                     progress.advance(frame_cost(preset, &id) * u64::from(preset.frames));
                     report.skipped.push(id);
                     done += 1;
@@ -326,14 +364,12 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
                 continue;
             }
             for id in &todo {
-                let folder = out.join(id.to_string());
-                let manifest_path = folder.join("manifest.json");
-                // Un-mark the sequence before touching its files.
-                if index.sequences.iter().any(|e| e.id == *id) {
-                    index.sequences.retain(|e| e.id != *id);
-                    write_index(writer, &index_path, &mut index)?;
-                }
+                let seq = out.join(id.to_string());
+                let manifest_path = seq.join("manifest.json");
+                // Un-mark the sequence before touching its files: without its manifest it
+                // leaves the index.
                 match std::fs::remove_file(&manifest_path) {
+                    Ok(()) => folder.publish(writer)?,
                     Err(e) if e.kind() != io::ErrorKind::NotFound => {
                         return Err(SetError::Io {
                             path: manifest_path,
@@ -341,10 +377,9 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
                             source: e,
                         });
                     }
-                    _ => {}
+                    Err(_) => {}
                 }
-                std::fs::create_dir_all(&folder).map_err(io_err(&folder, "cannot create the sequence folder"))?;
-                remove_temporaries(&folder);
+                remove_temporaries(&seq);
             }
             let bar = progress.sequence_bar(&todo[todo.len() - 1], preset.frames);
             let manifests = render_stream(request, &renderer, &todo, writer, |cost| {
@@ -360,15 +395,18 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
                 let manifest_path = out.join(id.to_string()).join("manifest.json");
                 let bytes = manifest_bytes(&manifest);
                 writer.write(&manifest_path, &bytes).map_err(io_err(&manifest_path, "cannot write"))?;
-                upsert(&mut index, id, &sha256_hex(&bytes));
-                write_index(writer, &index_path, &mut index)?;
+                // Its frames' hashes are those of the bytes this process wrote.
+                folder.verified.insert((*id, sha256_hex(&bytes)));
+                folder.publish(writer)?;
                 report.nonfinite_samples += manifest.nonfinite_samples();
                 report.rendered.push(*id);
                 done += 1;
                 progress.finished(done, id, "rendered", group_started.elapsed().as_secs_f64());
             }
+            drop(locks);
         }
-        Ok(())
+        // Another process may have completed sequences since the last publication.
+        folder.publish(writer)
     })();
     progress.finish();
     result?;
@@ -600,76 +638,253 @@ fn remove_temporaries(folder: &Path) {
     }
 }
 
-fn upsert(index: &mut SetIndex, id: &StimulusId, manifest_sha256: &str) {
-    index.sequences.retain(|e| e.id != *id);
-    index.sequences.push(IndexEntry { id: *id, folder: id.to_string(), manifest_sha256: manifest_sha256.to_owned() });
+/// The lock file, in a sequence's folder, of the process rendering it (`study::lock`).
+pub const SEQUENCE_LOCK: &str = "render.lock";
+/// The copy of the design file a set folder keeps, to name the keys a later design changes.
+pub const DESIGN_COPY: &str = "design.toml";
+
+/// A manifest found in a set folder: its folder, bytes and content.
+struct Found {
+    folder: PathBuf,
+    bytes: Vec<u8>,
+    manifest: SequenceManifest,
 }
 
-fn write_index(writer: &dyn FileWriter, path: &Path, index: &mut SetIndex) -> Result<(), SetError> {
-    index.sequences.sort_by_key(|e| e.id);
-    let mut bytes = serde_json::to_vec_pretty(index).unwrap_or_default();
-    bytes.push(b'\n');
-    writer.write(path, &bytes).map_err(io_err(path, "cannot write the set index"))
+/// A set folder being rendered into. The sequence manifests in it are the truth;
+/// `index.json` is rebuilt from those of this design, preset and sampling mode whose files
+/// verify, so several processes (or cluster nodes, without working locks) rendering into one
+/// folder all keep every completed sequence.
+struct SetFolder<'a> {
+    root: PathBuf,
+    design: &'a Design,
+    preset: &'a Preset,
+    sampling: Sampling,
+    /// Sequences (id, manifest hash) whose listed files verified, or that an index listed.
+    verified: std::collections::HashSet<(StimulusId, String)>,
 }
 
-/// The index to continue from: the existing one (when it belongs to this design and preset)
-/// keeping only entries whose manifest still hashes as recorded and was rendered from this
-/// design file; a new empty one otherwise.
-fn load_index(path: &Path, design: &Design, preset: &Preset, sampling: Sampling) -> Result<SetIndex, SetError> {
-    let fresh = SetIndex {
-        format: INDEX_FORMAT.to_owned(),
-        design: design.name().to_owned(),
-        design_sha256: design.sha256.clone(),
-        preset: preset.name.clone(),
-        sampling,
-        sequences: Vec::new(),
-    };
-    if !path.exists() {
-        return Ok(fresh);
-    }
-    let old = match SetIndex::read(path) {
-        Ok(old) => old,
-        Err(ManifestError::Io { source, .. }) => {
-            return Err(SetError::Io { path: path.to_owned(), action: "cannot read the set index", source });
+impl<'a> SetFolder<'a> {
+    /// Checks that the folder holds nothing of another design, preset or sampling mode, and
+    /// keeps a copy of the design file in it.
+    fn open(root: &Path, design: &'a Design, preset: &'a Preset, sampling: Sampling) -> Result<Self, SetError> {
+        let mut folder =
+            SetFolder { root: root.to_owned(), design, preset, sampling, verified: std::collections::HashSet::new() };
+        let index_path = root.join("index.json");
+        if index_path.exists() {
+            let old = match SetIndex::read(&index_path) {
+                Ok(old) => old,
+                Err(ManifestError::Io { source, .. }) => {
+                    return Err(SetError::Io { path: index_path, action: "cannot read the set index", source });
+                }
+                Err(e) => {
+                    return Err(SetError::Mismatch {
+                        path: index_path,
+                        message: format!("not a readable set index ({e}); remove it or render into another folder"),
+                    });
+                }
+            };
+            if old.design != design.name() || old.preset != preset.name {
+                return Err(SetError::Mismatch {
+                    path: index_path,
+                    message: format!(
+                        "this folder holds design `{}` rendered with preset `{}`, not design `{}` with preset `{}`; render into another folder",
+                        old.design,
+                        old.preset,
+                        design.name(),
+                        preset.name
+                    ),
+                });
+            }
+            if !old.sequences.is_empty() {
+                if old.design_sha256 != design.sha256 {
+                    return Err(folder.design_mismatch(&index_path, &old.design_sha256));
+                }
+                if old.sampling != sampling {
+                    return Err(sampling_mismatch(&index_path, old.sampling, sampling));
+                }
+            }
+            // What an index lists was verified by the process that listed it.
+            folder.verified.extend(old.sequences.into_iter().map(|e| (e.id, e.manifest_sha256)));
         }
-        Err(e) => {
-            return Err(SetError::Mismatch {
-                path: path.to_owned(),
-                message: format!("not a readable set index ({e}); remove it or render into another folder"),
-            });
+        folder.scan()?;
+        let copy = root.join(DESIGN_COPY);
+        if sha256_file(&copy).ok().as_deref() != Some(design.sha256.as_str()) {
+            write_atomic(&copy, design.text().as_bytes()).map_err(io_err(&copy, "cannot write"))?;
         }
-    };
-    if old.design != fresh.design || old.preset != fresh.preset {
-        return Err(SetError::Mismatch {
-            path: path.to_owned(),
-            message: format!(
-                "this folder holds design `{}` rendered with preset `{}`, not design `{}` with preset `{}`; render into another folder",
-                old.design, old.preset, fresh.design, fresh.preset
-            ),
-        });
+        Ok(folder)
     }
-    if old.sampling != sampling && !old.sequences.is_empty() {
-        let flag = |s: Sampling| if s == Sampling::Nested { "with --nested" } else { "without --nested" };
-        return Err(SetError::Mismatch {
-            path: path.to_owned(),
-            message: format!(
-                "this folder holds a set rendered {}, and this run is {}; one set has one sampling mode: render into another folder",
-                flag(old.sampling),
-                flag(sampling)
-            ),
-        });
+
+    /// The manifests in the folder, refusing one of another design, preset or sampling mode.
+    fn scan(&self) -> Result<Vec<Found>, SetError> {
+        let entries = std::fs::read_dir(&self.root).map_err(io_err(&self.root, "cannot list the set folder"))?;
+        let mut found = Vec::new();
+        for entry in entries.flatten() {
+            let name = entry.file_name();
+            let Some(id) = name.to_str().and_then(|n| n.parse::<StimulusId>().ok()) else { continue };
+            let path = entry.path().join("manifest.json");
+            let Ok(bytes) = std::fs::read(&path) else { continue };
+            // A manifest that does not parse is not a complete sequence (never listed).
+            let Ok(manifest) = serde_json::from_slice::<SequenceManifest>(&bytes) else { continue };
+            if manifest.format != SEQUENCE_FORMAT || manifest.id != id {
+                continue;
+            }
+            if manifest.design_sha256 != self.design.sha256 {
+                return Err(self.design_mismatch(&path, &manifest.design_sha256));
+            }
+            if manifest.preset != self.preset.name {
+                return Err(SetError::Mismatch {
+                    path,
+                    message: format!(
+                        "rendered with preset `{}`, and this run renders preset `{}`; render into another folder",
+                        manifest.preset, self.preset.name
+                    ),
+                });
+            }
+            if manifest.sampling != self.sampling {
+                return Err(sampling_mismatch(&path, manifest.sampling, self.sampling));
+            }
+            found.push(Found { folder: entry.path(), bytes, manifest });
+        }
+        Ok(found)
     }
-    let root = path.parent().unwrap_or(Path::new("."));
-    let sequences = old
-        .sequences
-        .into_iter()
-        .filter(|e| {
-            let manifest_path = root.join(&e.folder).join("manifest.json");
-            sha256_file(&manifest_path).is_ok_and(|h| h == e.manifest_sha256)
-                && SequenceManifest::read(&manifest_path).is_ok_and(|m| m.design_sha256 == design.sha256)
+
+    /// The index of the complete sequences in the folder now.
+    fn rebuild(&mut self) -> Result<SetIndex, SetError> {
+        let mut sequences = Vec::new();
+        for f in self.scan()? {
+            let m = &f.manifest;
+            let eyes = study::Eye::of_view(m.id.view).len() as u32;
+            let spp = self.preset.samples_per_pixel.get(usize::from(m.id.samples).wrapping_sub(1)).copied();
+            let fits = Some(m.samples_per_pixel) == spp
+                && m.width == self.preset.width * eyes
+                && m.height == self.preset.height
+                && m.frames.len() == self.preset.frames as usize
+                && m.frames.iter().enumerate().all(|(i, r)| r.index as usize == i);
+            if !fits {
+                continue;
+            }
+            let key = (m.id, sha256_hex(&f.bytes));
+            if !self.verified.contains(&key) {
+                if !frames_verify(&f.folder, m) {
+                    continue;
+                }
+                self.verified.insert(key.clone());
+            }
+            sequences.push(IndexEntry { id: m.id, folder: m.id.to_string(), manifest_sha256: key.1 });
+        }
+        sequences.sort_by_key(|e| e.id);
+        Ok(SetIndex {
+            format: INDEX_FORMAT.to_owned(),
+            design: self.design.name().to_owned(),
+            design_sha256: self.design.sha256.clone(),
+            preset: self.preset.name.clone(),
+            sampling: self.sampling,
+            sequences,
         })
-        .collect();
-    Ok(SetIndex { sequences, ..fresh })
+    }
+
+    /// Rewrites `index.json` from the folder until a fresh rebuild equals what is on disk: the
+    /// last process to write the index checks it after its write, so a concurrent writer's
+    /// older view never has the last word.
+    fn publish(&mut self, writer: &dyn FileWriter) -> Result<(), SetError> {
+        let path = self.root.join("index.json");
+        for _ in 0..100 {
+            let index = self.rebuild()?;
+            let mut bytes = serde_json::to_vec_pretty(&index).unwrap_or_default();
+            bytes.push(b'\n');
+            if std::fs::read(&path).is_ok_and(|disk| disk == bytes) {
+                return Ok(());
+            }
+            writer.write(&path, &bytes).map_err(io_err(&path, "cannot write the set index"))?;
+        }
+        Ok(())
+    }
+
+    /// The error for a folder (at `path`) of another version of the design, naming the keys
+    /// that differ from the folder's design copy.
+    fn design_mismatch(&self, path: &Path, theirs: &str) -> SetError {
+        let copy = self.root.join(DESIGN_COPY);
+        let differences = match std::fs::read_to_string(&copy) {
+            Ok(text) if sha256_hex(text.as_bytes()) == theirs => {
+                match (text.parse::<toml::Table>(), self.design.text().parse::<toml::Table>()) {
+                    (Ok(a), Ok(b)) => {
+                        let mut keys = Vec::new();
+                        toml_differences("", &toml::Value::Table(a), &toml::Value::Table(b), &mut keys);
+                        if keys.is_empty() {
+                            "the files differ only in comments or layout".to_owned()
+                        } else {
+                            let more = keys.len().saturating_sub(8);
+                            keys.truncate(8);
+                            let mut s = format!("keys that differ: {}", keys.join(", "));
+                            if more > 0 {
+                                s.push_str(&format!(" and {more} more"));
+                            }
+                            s
+                        }
+                    }
+                    _ => format!("{} does not parse", copy.display()),
+                }
+            }
+            _ => format!("no copy of that design in {} to compare keys with", copy.display()),
+        };
+        SetError::Mismatch {
+            path: path.to_owned(),
+            message: format!(
+                "this folder holds a set of another version of design `{}` (design_sha256 {theirs}), and {} has sha256 {}: {differences}; render into another folder, or restore the design the set was rendered from",
+                self.design.name(),
+                self.design.path.display(),
+                self.design.sha256
+            ),
+        }
+    }
+}
+
+fn sampling_mismatch(path: &Path, theirs: Sampling, ours: Sampling) -> SetError {
+    let flag = |s: Sampling| if s == Sampling::Nested { "with --nested" } else { "without --nested" };
+    SetError::Mismatch {
+        path: path.to_owned(),
+        message: format!(
+            "this folder holds a set rendered {}, and this run is {}; one set has one sampling mode: render into another folder",
+            flag(theirs),
+            flag(ours)
+        ),
+    }
+}
+
+/// The dotted keys whose values differ between two TOML values (`key (A there, B here)`).
+fn toml_differences(prefix: &str, a: &toml::Value, b: &toml::Value, out: &mut Vec<String>) {
+    let show = |v: Option<&toml::Value>| v.map_or_else(|| "absent".to_owned(), |v| v.to_string());
+    match (a, b) {
+        (toml::Value::Table(x), toml::Value::Table(y)) => {
+            let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();
+            for k in keys {
+                let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                match (x.get(k), y.get(k)) {
+                    (Some(p), Some(q)) => toml_differences(&key, p, q, out),
+                    (p, q) => out.push(format!("`{key}` ({} there, {} here)", show(p), show(q))),
+                }
+            }
+        }
+        (toml::Value::Array(x), toml::Value::Array(y)) if x.len() == y.len() => {
+            for (i, (p, q)) in x.iter().zip(y).enumerate() {
+                toml_differences(&format!("{prefix}[{i}]"), p, q, out);
+            }
+        }
+        _ if a != b => out.push(format!("`{prefix}` ({} there, {} here)", show(Some(a)), show(Some(b)))),
+        _ => {}
+    }
+}
+
+/// Whether every file a manifest lists hashes as recorded.
+fn frames_verify(folder: &Path, m: &SequenceManifest) -> bool {
+    m.frames.iter().all(|f| {
+        sha256_file(&folder.join(&f.png)).is_ok_and(|h| h == f.png_sha256)
+            && match (&f.exr, &f.exr_sha256) {
+                (Some(name), Some(hash)) => sha256_file(&folder.join(name)).is_ok_and(|h| h == *hash),
+                (None, None) => true,
+                _ => false,
+            }
+    })
 }
 
 /// Whether `folder` holds a complete rendering of `id` as this request would produce it;

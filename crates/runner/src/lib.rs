@@ -71,6 +71,19 @@ pub enum RunnerError {
         /// Why.
         message: String,
     },
+    /// Another process is running a session of this participant.
+    #[error(
+        "{}: participant {participant} already has a session running in another process ({holder}); wait for it to end, or, if that process is gone, remove this file",
+        path.display()
+    )]
+    Locked {
+        /// The lock file.
+        path: PathBuf,
+        /// The participant code.
+        participant: String,
+        /// Who holds it.
+        holder: study::lock::Holder,
+    },
     /// A command-line or start-screen value is unusable (participant code, model, display).
     #[error("{what}: {message}")]
     Input {

@@ -14,6 +14,12 @@
 //! start of the slot's playback) and `late` (1 when shown more than one refresh after it was
 //! due, or never shown). It is appended and synced just before the trial's row; a trial shown
 //! again after a kill can appear twice there.
+//!
+//! One writer per participant: [`Session::open`] takes the lock file `session.lock` in the
+//! participant's folder (`study::lock`: host, pid and start time inside) and holds it until
+//! the session is dropped. A second process for the same experiment and participant is
+//! refused with [`RunnerError::Locked`], naming the holder's host and pid; the lock of a
+//! killed process on this host is stale and its successor takes it over.
 
 use std::fs::{File, OpenOptions};
 use std::io::Write;
@@ -73,6 +79,7 @@ pub struct Session {
     log: ResponseLog,
     frames: File,
     frames_path: PathBuf,
+    _lock: study::lock::LockFile,
 }
 
 /// Checks a participant code: 1-32 letters, digits, `-` or `_` (pseudonymous; no names).
@@ -91,6 +98,22 @@ pub fn check_participant(code: &str) -> Result<(), RunnerError> {
 /// The folder of a participant's sessions.
 pub fn participant_dir(results: &Path, experiment: &str, participant: &str) -> PathBuf {
     results.join(experiment).join(participant)
+}
+
+/// The lock file of a participant's sessions.
+pub fn lock_path(dir: &Path) -> PathBuf {
+    dir.join("session.lock")
+}
+
+/// Takes the participant folder's session lock (creating the folder).
+pub fn lock_participant(dir: &Path, participant: &str) -> Result<study::lock::LockFile, RunnerError> {
+    std::fs::create_dir_all(dir).map_err(|source| RunnerError::Io { path: dir.to_owned(), source })?;
+    study::lock::LockFile::acquire(&lock_path(dir)).map_err(|e| match e {
+        study::lock::LockError::Held { path, holder } => {
+            RunnerError::Locked { path, participant: participant.to_owned(), holder }
+        }
+        study::lock::LockError::Io { path, source } => RunnerError::Io { path, source },
+    })
 }
 
 /// Session numbers present in a participant folder, ascending.
@@ -125,13 +148,13 @@ impl Session {
     ) -> Result<Session, RunnerError> {
         check_participant(participant)?;
         let dir = participant_dir(results, &definition.name, participant);
-        std::fs::create_dir_all(&dir).map_err(|source| RunnerError::Io { path: dir.clone(), source })?;
+        let lock = lock_participant(&dir, participant)?;
         let last = existing_sessions(&dir).last().copied();
         if let Some(n) = last {
             let path = dir.join(format!("session-{n}.csv"));
             let log = SessionLog::read(&path)?;
             if !log.completed {
-                return Self::resume(definition, set, &path, n, options);
+                return Self::resume(definition, set, &path, n, options, lock);
             }
         }
         let number = last.unwrap_or(0) + 1;
@@ -169,6 +192,7 @@ impl Session {
             log,
             frames,
             frames_path,
+            _lock: lock,
         })
     }
 
@@ -178,6 +202,7 @@ impl Session {
         path: &Path,
         number: u32,
         options: &SessionOptions,
+        lock: study::lock::LockFile,
     ) -> Result<Session, RunnerError> {
         let bad = |message: String| RunnerError::Resume { path: path.to_owned(), message };
         let (mut log, read) = ResponseLog::resume(path)?;
@@ -198,7 +223,8 @@ impl Session {
                 definition.sha256
             )));
         }
-        if get("stimulus_set_sha256") != set.sha256 {
+        // Logs of earlier versions recorded the index's hash.
+        if get("stimulus_set_sha256") != set.sha256 && get("stimulus_set_sha256") != set.index_sha256 {
             return Err(bad(format!(
                 "the stimulus set differs from the one this session started with (stimulus_set_sha256 {} in the log, {} for {})",
                 get("stimulus_set_sha256"),
@@ -254,6 +280,7 @@ impl Session {
             log,
             frames,
             frames_path,
+            _lock: lock,
         })
     }
 
@@ -393,6 +420,10 @@ mod tests {
         assert_eq!(log.rows.len(), schedule.len());
         assert!(log.rows.iter().zip(&schedule).all(|((_, r), t)| r.shown == t.shown && r.practice == t.practice));
         assert_eq!(log.header.get("participant"), Some("P01"));
+        // One writer: while the session is open, another is refused naming this process.
+        let e = Session::open(&d, &set, &results, "P01", &opts).unwrap_err().to_string();
+        assert!(e.contains(&format!("pid {}", std::process::id())) && e.contains("session.lock"), "{e}");
+        drop(s);
         // A completed session makes the next run a new session.
         let s = Session::open(&d, &set, &results, "P01", &opts).unwrap();
         assert_eq!((s.number, s.next), (2, 0));

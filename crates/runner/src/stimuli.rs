@@ -2,9 +2,11 @@
 //! sequences an experiment shows, and their frames decoded to display pixels.
 //!
 //! [`StimulusSet::open_for`] checks, before the first trial, that every stimulus the
-//! experiment shows (trials, practice, briefing examples) is in the set's index, that its
-//! manifest reads, is the stimulus the index says and lists frames, and that every frame
-//! file exists; errors name what is missing.
+//! experiment shows (trials, practice, briefing examples) is in the set's index, that every
+//! manifest of the index hashes as the index records, that each shown manifest is the
+//! stimulus the index says and lists frames, and that every frame it will show hashes as its
+//! manifest records (hashed on all cores); errors name the sequence and frame. The set's
+//! identity in a log header is its content hash ([`SetIndex::content_sha256`]).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -24,8 +26,11 @@ pub struct StimulusSet {
     pub dir: PathBuf,
     /// The parsed index.
     pub index: SetIndex,
-    /// SHA-256 of index.json (recorded in every log header).
+    /// The set's content hash over its verified manifests ([`SetIndex::content_sha256`],
+    /// recorded in every log header as `stimulus_set_sha256`).
     pub sha256: String,
+    /// SHA-256 of index.json (what logs of earlier versions recorded).
+    pub index_sha256: String,
     /// Manifests of the sequences the experiment shows.
     pub sequences: BTreeMap<StimulusId, Sequence>,
 }
@@ -53,13 +58,29 @@ impl StimulusSet {
         let bytes = std::fs::read(&index_path)
             .map_err(|source| study::manifest::ManifestError::Io { path: index_path.clone(), source })?;
         let index = SetIndex::read(&index_path)?;
-        let sha256 = study::fsio::sha256_hex(&bytes);
+        let index_sha256 = study::fsio::sha256_hex(&bytes);
         let listed: BTreeMap<StimulusId, &str> = index.sequences.iter().map(|e| (e.id, e.folder.as_str())).collect();
         let wanted = definition.all_stimuli();
         let missing: Vec<StimulusId> = wanted.iter().filter(|id| !listed.contains_key(id)).copied().collect();
         if !missing.is_empty() {
             return Err(RunnerError::MissingStimuli { set: index_path, experiment: definition.path.clone(), missing });
         }
+        // Every manifest is the one the index lists: the content hash then names the set.
+        for e in &index.sequences {
+            let path = dir.join(&e.folder).join("manifest.json");
+            let bytes = std::fs::read(&path).map_err(|source| RunnerError::Io { path: path.clone(), source })?;
+            let actual = study::fsio::sha256_hex(&bytes);
+            if actual != e.manifest_sha256 {
+                return Err(RunnerError::Sequence {
+                    path,
+                    message: format!(
+                        "sequence {}: the manifest's sha256 is {actual}, and index.json records {}: the set was altered or damaged; re-render it (`blurlab stimuli render --resume`)",
+                        e.id, e.manifest_sha256
+                    ),
+                });
+            }
+        }
+        let sha256 = index.content_sha256();
         let mut sequences = BTreeMap::new();
         for id in wanted {
             let folder = dir.join(listed[&id]);
@@ -89,12 +110,51 @@ impl StimulusSet {
             }
             sequences.insert(id, Sequence { folder, manifest });
         }
-        Ok(StimulusSet { dir: dir.to_owned(), index, sha256, sequences })
+        verify_frames(&sequences)?;
+        Ok(StimulusSet { dir: dir.to_owned(), index, sha256, index_sha256, sequences })
     }
 
     /// The sequence of a stimulus checked by [`StimulusSet::open_for`].
     pub fn sequence(&self, id: &StimulusId) -> &Sequence {
         &self.sequences[id]
+    }
+}
+
+/// Checks every frame of `sequences` against its manifest's hash, on all cores; the error
+/// names the first damaged frame in id and frame order.
+fn verify_frames(sequences: &BTreeMap<StimulusId, Sequence>) -> Result<(), RunnerError> {
+    let jobs: Vec<(&Sequence, &study::manifest::FrameRecord)> =
+        sequences.values().flat_map(|s| s.manifest.frames.iter().map(move |f| (s, f))).collect();
+    let threads = std::thread::available_parallelism().map_or(1, usize::from).clamp(1, jobs.len().max(1));
+    let next = AtomicUsize::new(0);
+    let errors: Vec<(usize, RunnerError)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads)
+            .map(|_| {
+                scope.spawn(|| {
+                    let mut errors = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, Ordering::Relaxed);
+                        let Some((s, f)) = jobs.get(i) else { break };
+                        let path = s.folder.join(&f.png);
+                        let error = match study::fsio::sha256_file(&path) {
+                            Ok(h) if h == f.png_sha256 => continue,
+                            Ok(h) => format!(
+                                "sequence {} frame {}: the file's sha256 is {h}, and its manifest records {}: the set was altered or damaged; re-render it (`blurlab stimuli render --resume`)",
+                                s.manifest.id, f.index, f.png_sha256
+                            ),
+                            Err(e) => format!("sequence {} frame {}: cannot read: {e}", s.manifest.id, f.index),
+                        };
+                        errors.push((i, RunnerError::Sequence { path, message: error }));
+                    }
+                    errors
+                })
+            })
+            .collect();
+        handles.into_iter().flat_map(|h| h.join().unwrap_or_default()).collect()
+    });
+    match errors.into_iter().min_by_key(|(i, _)| *i) {
+        Some((_, e)) => Err(e),
+        None => Ok(()),
     }
 }
 
@@ -467,6 +527,38 @@ mod tests {
         std::fs::remove_file(dir.path().join("M2-S2-T4-A5/frame-0002.png")).unwrap();
         let e = StimulusSet::open_for(dir.path(), &d).unwrap_err().to_string();
         assert!(e.contains("M2-S2-T4-A5/manifest.json: frame 2 file") && e.contains("is missing"), "{e}");
+    }
+
+    #[test]
+    fn a_damaged_frame_or_an_altered_manifest_is_refused_naming_sequence_and_frame() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = crate::schedule::tests::definition("2afc", 1);
+        let all: Vec<StimulusId> = d.all_stimuli().into_iter().collect();
+        write_synthetic_set(dir.path(), &all, 8, 4, 3, 30.0).unwrap();
+        let set = StimulusSet::open_for(dir.path(), &d).unwrap();
+        assert_eq!(set.sha256, set.index.content_sha256());
+        assert_ne!(set.sha256, set.index_sha256);
+        // One flipped byte in a frame that still decodes as a PNG of the right size is found.
+        let frame = dir.path().join("M2-S2-T4-A5/frame-0001.png");
+        let mut bytes = std::fs::read(&frame).unwrap();
+        let other = dir.path().join("M2-S2-T3-A5/frame-0001.png");
+        let replacement = std::fs::read(&other).unwrap();
+        assert_ne!(bytes, replacement);
+        std::fs::write(&frame, &replacement).unwrap();
+        let e = StimulusSet::open_for(dir.path(), &d).unwrap_err().to_string();
+        assert!(e.contains("sequence M2-S2-T4-A5 frame 1: the file's sha256 is"), "{e}");
+        assert!(e.contains("frame-0001.png") && e.contains("altered or damaged"), "{e}");
+        let last = bytes.len() - 1;
+        bytes[last] ^= 1;
+        std::fs::write(&frame, &bytes).unwrap();
+        assert!(StimulusSet::open_for(dir.path(), &d).unwrap_err().to_string().contains("frame 1"));
+        // A manifest edited after rendering no longer matches the index.
+        write_synthetic_set(dir.path(), &all, 8, 4, 3, 30.0).unwrap();
+        let manifest = dir.path().join("M2-S2-T1-A1/manifest.json");
+        let text = std::fs::read_to_string(&manifest).unwrap().replace("\"fps\": 30.0", "\"fps\": 60.0");
+        std::fs::write(&manifest, text).unwrap();
+        let e = StimulusSet::open_for(dir.path(), &d).unwrap_err().to_string();
+        assert!(e.contains("sequence M2-S2-T1-A1: the manifest's sha256"), "{e}");
     }
 
     #[test]

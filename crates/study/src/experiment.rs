@@ -21,6 +21,12 @@ use crate::toml_locate::{TomlError, backticked, key_line};
 
 /// Format tag of an experiment definition.
 pub const EXPERIMENT_FORMAT: &str = "blurlab-experiment/1";
+/// The most repeats of each pair.
+pub const MAX_REPEATS: u32 = 1000;
+/// The most counted trials of a session (pairs x repeats).
+pub const MAX_TRIALS: u64 = 100_000;
+/// The most loops of a sequence per presentation.
+pub const MAX_LOOPS: u32 = 100;
 
 /// How the two eyes of a stereo sequence (or the one image of a mono sequence) reach the screen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize, serde::Serialize)]
@@ -292,6 +298,28 @@ impl ExperimentDefinition {
         if pairs.repeats == 0 {
             return Err(bad("pairs", None, "repeats", "must be 1 or more".into()));
         }
+        if pairs.repeats > MAX_REPEATS {
+            return Err(bad(
+                "pairs",
+                None,
+                "repeats",
+                format!("{} is above the limit of {MAX_REPEATS}", pairs.repeats),
+            ));
+        }
+        let n = stimuli.len() as u64;
+        let trials = n * (n - 1) / 2 * u64::from(pairs.repeats);
+        if trials > MAX_TRIALS {
+            return Err(bad(
+                "pairs",
+                None,
+                "repeats",
+                format!(
+                    "{n} stimuli in {} pairs x {} repeats make {trials} trials, above the limit of {MAX_TRIALS}",
+                    n * (n - 1) / 2,
+                    pairs.repeats
+                ),
+            ));
+        }
         let rnd = raw.randomisation.unwrap_or_default();
 
         let id_of = |table: &str, index: Option<usize>, key: &str, text: &str| -> Result<StimulusId, ExperimentError> {
@@ -346,8 +374,8 @@ impl ExperimentDefinition {
         }
 
         let p = raw.presentation.unwrap_or_default();
-        if p.loops == 0 {
-            return Err(bad("presentation", None, "loops", "must be 1 or more".into()));
+        if p.loops == 0 || p.loops > MAX_LOOPS {
+            return Err(bad("presentation", None, "loops", format!("must be 1 to {MAX_LOOPS}, found {}", p.loops)));
         }
         if !(p.visual_angle_deg > 0.0 && p.visual_angle_deg < 120.0) {
             return Err(bad(

@@ -7,6 +7,7 @@ pub mod design;
 pub mod experiment;
 pub mod fsio;
 pub mod ids;
+pub mod lock;
 pub mod manifest;
 pub mod method;
 pub mod response;

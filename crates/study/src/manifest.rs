@@ -187,6 +187,19 @@ pub struct SetIndex {
     pub sequences: Vec<IndexEntry>,
 }
 
+impl SetIndex {
+    /// The set's content hash: SHA-256 of the lines `ID MANIFEST_SHA256\n` of its entries in
+    /// id order. Once each entry's manifest is checked against its hash (and each manifest's
+    /// frames against theirs), it identifies every byte of the set, whatever the index's
+    /// layout; `stimulus_set_sha256` in response logs.
+    pub fn content_sha256(&self) -> String {
+        let mut entries: Vec<&IndexEntry> = self.sequences.iter().collect();
+        entries.sort_by_key(|e| e.id);
+        let text: String = entries.iter().map(|e| format!("{} {}\n", e.id, e.manifest_sha256)).collect();
+        crate::fsio::sha256_hex(text.as_bytes())
+    }
+}
+
 /// Why a manifest could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum ManifestError {
@@ -224,7 +237,11 @@ pub enum ManifestError {
 
 fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, ManifestError> {
     let text = std::fs::read_to_string(path).map_err(|source| ManifestError::Io { path: path.to_owned(), source })?;
-    serde_json::from_str(&text).map_err(|e| ManifestError::Parse {
+    parse_json(path, &text)
+}
+
+fn parse_json<T: serde::de::DeserializeOwned>(path: &Path, text: &str) -> Result<T, ManifestError> {
+    serde_json::from_str(text).map_err(|e| ManifestError::Parse {
         path: path.to_owned(),
         line: e.line(),
         column: e.column(),
@@ -236,6 +253,16 @@ impl SequenceManifest {
     /// Reads and checks a sequence manifest.
     pub fn read(path: &Path) -> Result<Self, ManifestError> {
         let m: Self = read_json(path)?;
+        m.checked(path)
+    }
+
+    /// Parses and checks manifest text read from `path`.
+    pub fn parse(path: &Path, text: &str) -> Result<Self, ManifestError> {
+        parse_json::<Self>(path, text)?.checked(path)
+    }
+
+    fn checked(self, path: &Path) -> Result<Self, ManifestError> {
+        let m = self;
         if m.format != SEQUENCE_FORMAT {
             return Err(ManifestError::Format { path: path.to_owned(), found: m.format, expected: SEQUENCE_FORMAT });
         }
@@ -247,6 +274,16 @@ impl SetIndex {
     /// Reads and checks a set index.
     pub fn read(path: &Path) -> Result<Self, ManifestError> {
         let m: Self = read_json(path)?;
+        m.checked(path)
+    }
+
+    /// Parses and checks index text read from `path`.
+    pub fn parse(path: &Path, text: &str) -> Result<Self, ManifestError> {
+        parse_json::<Self>(path, text)?.checked(path)
+    }
+
+    fn checked(self, path: &Path) -> Result<Self, ManifestError> {
+        let m = self;
         if m.format != INDEX_FORMAT {
             return Err(ManifestError::Format { path: path.to_owned(), found: m.format, expected: INDEX_FORMAT });
         }

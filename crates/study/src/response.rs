@@ -233,31 +233,68 @@ impl SessionLog {
         Self::parse(path, &text)
     }
 
-    /// Parses log text read from `path`.
+    /// Parses log text read from `path`. A leading byte-order mark is skipped. Ambiguous
+    /// logs are errors naming the line: a header key given twice with different values (in
+    /// the header or as a comment among the rows), a `session` that is not a number, a second
+    /// format line or column row (two logs concatenated), a row after `# completed`, and a
+    /// trial number that repeats an earlier row's or does not follow it.
     pub fn parse(path: &Path, text: &str) -> Result<Self, ResponseError> {
         let bad = |line: usize, message: String| ResponseError::Malformed { path: path.to_owned(), line, message };
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let ends_with_newline = text.ends_with('\n');
         let lines: Vec<&str> = text.lines().collect();
         if lines.first().map(|l| l.trim()) != Some(&format!("# {RESPONSES_FORMAT}")[..]) {
             return Err(bad(1, format!("expected `# {RESPONSES_FORMAT}` as the first line")));
         }
         let mut header = SessionHeader::default();
-        let mut rows = Vec::new();
-        let mut completed = false;
+        let mut header_lines: Vec<usize> = Vec::new();
+        let mut rows: Vec<(usize, TrialRow)> = Vec::new();
+        let mut completed: Option<usize> = None;
         let mut trailing_corrupt = None;
         let mut seen_columns = false;
+        let mut trial_lines: std::collections::BTreeMap<u32, usize> = std::collections::BTreeMap::new();
         for (i, raw) in lines.iter().enumerate().skip(1) {
             let line_no = i + 1;
             let is_last = i + 1 == lines.len();
             if let Some(comment) = raw.strip_prefix('#') {
                 let comment = comment.trim();
                 if comment.starts_with("completed:") {
-                    completed = true;
+                    completed.get_or_insert(line_no);
+                } else if comment == RESPONSES_FORMAT {
+                    return Err(bad(line_no, "a second log begins here (two logs concatenated into one file)".into()));
                 } else if !seen_columns {
                     let (k, v) = comment
                         .split_once(':')
                         .ok_or_else(|| bad(line_no, format!("header line `{raw}` is not `# key: value`")))?;
-                    header.fields.push((k.trim().to_owned(), v.trim().to_owned()));
+                    let (k, v) = (k.trim(), v.trim());
+                    if let Some(at) = header.fields.iter().position(|(key, _)| key == k) {
+                        if header.fields[at].1 != v {
+                            return Err(bad(
+                                line_no,
+                                format!(
+                                    "header key `{k}` is `{v}` here and `{}` on line {}: ambiguous",
+                                    header.fields[at].1, header_lines[at]
+                                ),
+                            ));
+                        }
+                    } else {
+                        header.fields.push((k.to_owned(), v.to_owned()));
+                        header_lines.push(line_no);
+                    }
+                } else if let Some((k, v)) = comment.split_once(':')
+                    && let Some(at) = header.fields.iter().position(|(key, _)| key == k.trim())
+                    && header.fields[at].1 != v.trim()
+                {
+                    return Err(bad(
+                        line_no,
+                        format!(
+                            "header key `{}` is repeated among the rows as `{}`, and is `{}` on line {}: ambiguous",
+                            k.trim(),
+                            v.trim(),
+                            header.fields[at].1,
+                            header_lines[at]
+                        ),
+                    ));
                 }
                 continue;
             }
@@ -268,20 +305,36 @@ impl SessionLog {
                 seen_columns = true;
                 continue;
             }
-            match TrialRow::parse_line(raw) {
-                Ok(row) if !is_last || ends_with_newline => rows.push((line_no, row)),
+            if raw.trim() == COLUMNS {
+                return Err(bad(line_no, "a second column row (two logs concatenated into one file)".into()));
+            }
+            let row = match TrialRow::parse_line(raw) {
+                Ok(row) if !is_last || ends_with_newline => row,
                 Ok(_) => {
                     trailing_corrupt = Some(CorruptRow {
                         line: line_no,
                         text: (*raw).to_owned(),
                         reason: "the last row has no line end (interrupted write)".into(),
-                    })
+                    });
+                    continue;
                 }
                 Err(reason) if is_last => {
-                    trailing_corrupt = Some(CorruptRow { line: line_no, text: (*raw).to_owned(), reason })
+                    trailing_corrupt = Some(CorruptRow { line: line_no, text: (*raw).to_owned(), reason });
+                    continue;
                 }
                 Err(message) => return Err(bad(line_no, message)),
+            };
+            if let Some(done) = completed {
+                return Err(bad(line_no, format!("a row after `# completed` on line {done}")));
             }
+            if let Some(other) = trial_lines.insert(row.trial, line_no) {
+                return Err(bad(line_no, format!("trial {} is also on line {other} (duplicated trial)", row.trial)));
+            }
+            let expected = rows.last().map_or(0, |(_, r)| r.trial.saturating_add(1));
+            if row.trial != expected {
+                return Err(bad(line_no, format!("trial {} where trial {expected} was expected", row.trial)));
+            }
+            rows.push((line_no, row));
         }
         if !seen_columns {
             return Err(bad(lines.len() + 1, format!("missing the column row `{COLUMNS}`")));
@@ -291,7 +344,15 @@ impl SessionLog {
                 return Err(bad(1, format!("header has no `# {key}: ...` line")));
             }
         }
-        Ok(SessionLog { path: path.to_owned(), header, rows, trailing_corrupt, completed })
+        if let Some(at) = header.fields.iter().position(|(k, _)| k == "session")
+            && header.fields[at].1.parse::<u32>().is_err()
+        {
+            return Err(bad(
+                header_lines[at],
+                format!("header key `session` is `{}`, not a session number", header.fields[at].1),
+            ));
+        }
+        Ok(SessionLog { path: path.to_owned(), header, rows, trailing_corrupt, completed: completed.is_some() })
     }
 }
 
@@ -397,6 +458,7 @@ mod tests {
         for k in REQUIRED_KEYS {
             h.set(k, format!("{k}-value"));
         }
+        h.set("session", "1");
         h
     }
 
@@ -452,6 +514,48 @@ mod tests {
         let read = SessionLog::read(&path).unwrap();
         assert_eq!(read.rows.len(), 3);
         assert!(read.completed && read.trailing_corrupt.is_none());
+    }
+
+    #[test]
+    fn ambiguous_logs_are_errors_naming_the_line_and_a_bom_is_accepted() {
+        let path = Path::new("results/x/P01/session-1.csv");
+        let mut valid = format!("# {RESPONSES_FORMAT}\n");
+        for (k, v) in &header().fields {
+            valid.push_str(&format!("# {k}: {v}\n"));
+        }
+        valid.push_str(COLUMNS);
+        valid.push('\n');
+        for t in 0..3 {
+            valid.push_str(&row(t).to_line());
+            valid.push('\n');
+        }
+        // Rows are lines 10-12.
+        assert_eq!(SessionLog::parse(path, &valid).unwrap().rows.len(), 3);
+        let bom = format!("\u{feff}{valid}");
+        assert_eq!(SessionLog::parse(path, &bom).unwrap().rows.len(), 3);
+        let err = |text: &str| SessionLog::parse(path, text).unwrap_err().to_string();
+
+        let duplicated = format!("{valid}{}\n", row(1).to_line());
+        let e = err(&duplicated);
+        assert!(e.contains("session-1.csv: line 13: trial 1 is also on line 11 (duplicated trial)"), "{e}");
+        let skipped = format!("{valid}{}\n", row(5).to_line());
+        assert!(err(&skipped).contains("line 13: trial 5 where trial 3 was expected"));
+        let changed = format!("{valid}# seed: 99\n");
+        let e = err(&changed);
+        assert!(
+            e.contains("line 13: header key `seed` is repeated among the rows as `99`, and is `seed-value` on line 6"),
+            "{e}"
+        );
+        let twice = valid.replacen("# seed: seed-value\n", "# seed: seed-value\n# seed: 7\n", 1);
+        assert!(err(&twice).contains("line 7: header key `seed` is `7` here and `seed-value` on line 6"));
+        let session = valid.replace("# session: 1\n", "# session: one\n");
+        assert!(err(&session).contains("line 8: header key `session` is `one`, not a session number"));
+        let concatenated = format!("{valid}{valid}");
+        assert!(err(&concatenated).contains("line 13: a second log begins here (two logs concatenated"));
+        let headless = format!("{valid}{COLUMNS}\n{}\n", row(3).to_line());
+        assert!(err(&headless).contains("line 13: a second column row"));
+        let after = format!("{valid}# completed: now\n{}\n", row(3).to_line());
+        assert!(err(&after).contains("line 14: a row after `# completed` on line 13"));
     }
 
     #[test]

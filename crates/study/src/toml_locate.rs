@@ -14,7 +14,7 @@ use std::ops::Range;
 /// 1-based line and column (in characters) of byte `offset` of `text`; offsets past the end
 /// count as the end.
 pub fn line_column(text: &str, offset: usize) -> (usize, usize) {
-    let offset = offset.min(text.len());
+    let offset = char_floor(text, offset);
     let before = &text[..offset];
     let line = before.matches('\n').count() + 1;
     let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
@@ -26,7 +26,7 @@ pub fn line_column(text: &str, offset: usize) -> (usize, usize) {
 /// has no `=` before the offset, the name starting at the offset: an unknown key). On a
 /// header line, the table before it.
 pub fn key_at(text: &str, offset: usize) -> Option<String> {
-    let offset = offset.min(text.len());
+    let offset = char_floor(text, offset);
     let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
     let line_end = text[offset..].find('\n').map_or(text.len(), |i| offset + i);
     let line = &text[line_start..line_end];
@@ -43,7 +43,7 @@ pub fn key_at(text: &str, offset: usize) -> Option<String> {
     let name = match head.rfind('=') {
         Some(eq) => {
             let before = head[..eq].trim_end();
-            let start = before.rfind(|c: char| !is_key_char(c)).map_or(0, |i| i + 1);
+            let start = before.char_indices().rfind(|&(_, c)| !is_key_char(c)).map_or(0, |(i, c)| i + c.len_utf8());
             before[start..].to_owned()
         }
         None => line[upto.min(line.len())..].chars().take_while(|&c| is_key_char(c)).collect(),
@@ -55,6 +55,16 @@ pub fn key_at(text: &str, offset: usize) -> Option<String> {
         Some(t) => format!("{t}.{name}"),
         None => name,
     })
+}
+
+/// `offset` moved back to the start of the character it falls in (a parser's span may point
+/// inside a multi-byte character), and to the end at most.
+fn char_floor(text: &str, offset: usize) -> usize {
+    let mut offset = offset.min(text.len());
+    while !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    offset
 }
 
 fn is_key_char(c: char) -> bool {
@@ -158,6 +168,18 @@ impl TomlError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn offsets_inside_multibyte_characters_do_not_panic() {
+        // Found by the fuzz test: a parser span pointing into a replacement character.
+        let text = "a\u{fffd}\u{fffd} = 1\n[t]\n\u{e9}b = 2\n";
+        for offset in 0..text.len() + 3 {
+            let _ = line_column(text, offset);
+            let _ = key_at(text, offset);
+        }
+        assert_eq!(line_column(text, 2), (1, 2));
+        assert_eq!(key_at(text, text.len() - 2).as_deref(), Some("t.\u{e9}b"));
+    }
 
     const TEXT: &str = "name = \"x\"\n[sequence]\nfps = \"thirty\"\nbogus = 1\n[lighting]\nenvironment = { kind = \"file\", path = 3 }\n";
 

@@ -357,3 +357,45 @@ fn method_settings_must_belong_to_their_method_and_lie_in_range() {
     let (_, msg, _) = load_err(&format!("{}\n[method]\nkind = \"tracer\"\ntau = 2.0\n", shipped_text()));
     assert!(msg.contains("key `method.tau`: applies to guertin only, not to `tracer`"), "{msg}");
 }
+
+#[test]
+fn two_levels_with_one_name_or_one_value_are_an_error_naming_both() {
+    let text = shipped_text().replace("name = \"checker\"", "name = \"flat\"");
+    let (_, msg, _) = load_err(&text);
+    assert!(
+        msg.contains("factors.material[2].name") && msg.contains("has the name `flat` of factors.material[1]"),
+        "{msg}"
+    );
+    let text = shipped_text().replace("degrees_per_second = 15.0", "degrees_per_second = 5.0");
+    let (_, msg, _) = load_err(&text);
+    assert!(
+        msg.contains("factors.speed[3].name")
+            && msg.contains("level 3 `fast` is the same level as factors.speed[1] (`slow`)"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn sizes_beyond_the_limits_are_errors_naming_key_and_limit() {
+    for (from, to, needle) in [
+        ("width = 640", "width = 4000000000", "key `sequence.width`: 4000000000 pixels is above the limit of 16384"),
+        (
+            "width = 640\nheight = 360",
+            "width = 16000\nheight = 16000",
+            "key `sequence.height`: 16000x16000 is 256000000 pixels",
+        ),
+        ("frames = 120\n", "frames = 4000000000\n", "key `sequence.frames`: 4000000000 is above the limit of 100000"),
+        ("octaves = ", "octaves = 4000000000 #", "octaves`: 4000000000 is above the limit of 32"),
+        (
+            "samples_per_pixel = 512",
+            "samples_per_pixel = 4000000000",
+            "samples_per_pixel`: 4000000000 is above the limit of 1048576",
+        ),
+        ("width = 1024 }", "width = 4000000000 }", "must be an even number from 4 to 8192, found 4000000000"),
+    ] {
+        let text = shipped_text().replacen(from, to, 1);
+        assert_ne!(text, shipped_text(), "{from}");
+        let (_, msg, _) = load_err(&text);
+        assert!(msg.contains(needle), "{msg}");
+    }
+}

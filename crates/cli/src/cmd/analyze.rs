@@ -41,7 +41,7 @@ pub struct Args {
     /// Pool each participant's sessions into one judge for per-judge scores and the bootstrap.
     #[arg(long)]
     pool_participants: bool,
-    /// Bootstrap resamples of the Thurstone scale.
+    /// Bootstrap resamples of the Thurstone scale (0 for none, at most 100000).
     #[arg(long, default_value_t = 1000)]
     bootstrap: usize,
     /// Seed of the bootstrap (recorded in the report).
@@ -71,6 +71,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         judge_unit: if args.pool_participants { JudgeUnit::Participant } else { JudgeUnit::Replicate },
         scale: ScaleOptions { resamples: args.bootstrap, seed: args.seed, ..ScaleOptions::default() },
     };
+    if args.bootstrap > analysis::scaling::MAX_RESAMPLES {
+        return Err(BadInput(format!(
+            "--bootstrap {}: above the limit of {} resamples",
+            args.bootstrap,
+            analysis::scaling::MAX_RESAMPLES
+        ))
+        .into());
+    }
     let experiments = args.experiments.is_dir().then_some(args.experiments.as_path());
     let mut report =
         build_report(&args.results, args.manifest.as_deref(), experiments, options).map_err(|e| match e {

@@ -137,6 +137,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
         return Err(BadInput("no display (DISPLAY and WAYLAND_DISPLAY are unset): run in a desktop session, or use --simulate MODEL --seed S".into()).into());
     }
+    // Refuse at once when another process runs this participant's session (the window takes
+    // the lock itself when the session starts).
+    drop(
+        runner::session::lock_participant(
+            &runner::session::participant_dir(&args.results, &definition.name, &args.participant),
+            &args.participant,
+        )
+        .map_err(runner_error)?,
+    );
     let set = runner::stimuli::StimulusSet::open_for(&args.stimuli, &definition).map_err(runner_error)?;
     let mut config = runner::app::AppConfig::new(definition, set, args.results.clone());
     config.participant = Some(args.participant.clone());

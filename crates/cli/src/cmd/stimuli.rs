@@ -189,7 +189,9 @@ struct EnvArgs {
     /// Output EXR file.
     #[arg(long)]
     out: PathBuf,
-    /// Width of the map in pixels (height is half); defaults to the design's.
+    /// Width of the map in pixels: even, 4 to 8192 (the height is half); default 1024, the
+    /// width the shipped design's `lighting.environment` gives its built-in map. This command
+    /// reads no design.
     #[arg(long)]
     width: Option<u32>,
 }
@@ -367,8 +369,8 @@ fn describe(a: DescribeArgs) -> anyhow::Result<()> {
 
 fn env(a: EnvArgs) -> anyhow::Result<()> {
     let width = a.width.unwrap_or(1024);
-    if width < 4 || !width.is_multiple_of(2) {
-        return Err(BadInput(format!("--width {width}: must be an even number of at least 4")).into());
+    if !(4..=8192).contains(&width) || !width.is_multiple_of(2) {
+        return Err(BadInput(format!("--width {width}: must be an even number from 4 to 8192")).into());
     }
     let image = render::env::default_map(width);
     let bytes = render::io::encode_exr(&image).context("cannot encode the environment map")?;

@@ -138,6 +138,11 @@ pub struct Design {
 }
 
 impl Design {
+    /// The design file's text as read.
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
     /// Reads, parses and validates a design file.
     pub fn load(path: &Path) -> Result<Design, DesignError> {
         let bytes = std::fs::read(path).map_err(|source| DesignError::Io { path: path.to_owned(), source })?;

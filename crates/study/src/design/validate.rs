@@ -10,7 +10,82 @@ use crate::ids::MethodTag;
 use crate::method::MethodSpec;
 use crate::scene::{Environment, Lighting, Material};
 
+/// The largest image side (one eye) in pixels.
+pub const MAX_SIDE: u32 = 16384;
+/// The most pixels of one eye's image (a stereo frame holds twice as many).
+pub const MAX_PIXELS: u64 = 1 << 26;
+/// The most frames of a sequence.
+pub const MAX_FRAMES: u32 = 100_000;
+/// The most samples per pixel of a level.
+pub const MAX_SAMPLES: u32 = 1 << 20;
+/// The most octaves of a noise material.
+pub const MAX_OCTAVES: u32 = 32;
+
 impl Design {
+    /// Two levels of one factor with the same name or the same value are ambiguous: the error
+    /// names both (`factors.speed[2]` and `factors.speed[4]`).
+    fn distinct_levels(&self) -> Result<(), DesignError> {
+        let f = &self.spec.factors;
+        let mut materials: Vec<(String, String)> = Vec::new();
+        for m in &f.material {
+            let mut unnamed = m.clone();
+            unnamed.name.clear();
+            materials.push((m.name.clone(), format!("{unnamed:?}")));
+        }
+        let levels: [(&str, Vec<(String, String)>); 4] = [
+            ("material", materials),
+            ("speed", f.speed.iter().map(|l| (l.name.clone(), l.degrees_per_second.to_string())).collect()),
+            ("shutter", f.shutter.iter().map(|l| (l.name.clone(), l.fraction.to_string())).collect()),
+            ("samples", f.samples.iter().map(|l| (l.name.clone(), l.samples_per_pixel.to_string())).collect()),
+        ];
+        for (factor, list) in levels {
+            for (j, (name, value)) in list.iter().enumerate() {
+                for (i, (other_name, other_value)) in list[..j].iter().enumerate() {
+                    let what = if name == other_name {
+                        format!("has the name `{name}` of factors.{factor}[{}] too", i + 1)
+                    } else if value == other_value {
+                        format!("is the same level as factors.{factor}[{}] (`{other_name}`)", i + 1)
+                    } else {
+                        continue;
+                    };
+                    let table = format!("factors.{factor}");
+                    return Err(self.invalid(&table, Some(j), "name", format!("level {} `{name}` {what}", j + 1)));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Image size and frame count within the limits above (checked before anything is
+    /// allocated); the error names the key and the limit.
+    fn limits(
+        &self,
+        table: &str,
+        width: Option<u32>,
+        height: Option<u32>,
+        frames: Option<u32>,
+    ) -> Result<(), DesignError> {
+        for (key, v) in [("width", width), ("height", height)] {
+            if let Some(v) = v.filter(|&v| v > MAX_SIDE) {
+                return Err(self.invalid(table, None, key, format!("{v} pixels is above the limit of {MAX_SIDE}")));
+            }
+        }
+        let w = width.unwrap_or(self.spec.sequence.width);
+        let h = height.unwrap_or(self.spec.sequence.height);
+        if u64::from(w) * u64::from(h) > MAX_PIXELS {
+            return Err(self.invalid(
+                table,
+                None,
+                "height",
+                format!("{w}x{h} is {} pixels, above the limit of {MAX_PIXELS}", u64::from(w) * u64::from(h)),
+            ));
+        }
+        if let Some(f) = frames.filter(|&f| f > MAX_FRAMES) {
+            return Err(self.invalid(table, None, "frames", format!("{f} is above the limit of {MAX_FRAMES}")));
+        }
+        Ok(())
+    }
+
     pub(super) fn validate(&self) -> Result<(), DesignError> {
         let s = &self.spec;
         let positive = |table: &str, key: &str, v: f64| -> Result<(), DesignError> {
@@ -30,6 +105,7 @@ impl Design {
         if s.sequence.frames == 0 {
             return Err(self.invalid("sequence", None, "frames", "must be at least 1"));
         }
+        self.limits("sequence", Some(s.sequence.width), Some(s.sequence.height), Some(s.sequence.frames))?;
         positive("sequence", "fps", s.sequence.fps)?;
         if s.sequence.width == 0 || s.sequence.height == 0 {
             return Err(self.invalid("sequence", None, "width", "image size must be at least 1x1"));
@@ -119,7 +195,16 @@ impl Design {
             if a.samples_per_pixel == 0 {
                 return Err(self.invalid("factors.samples", Some(i), "samples_per_pixel", "must be at least 1"));
             }
+            if a.samples_per_pixel > MAX_SAMPLES {
+                return Err(self.invalid(
+                    "factors.samples",
+                    Some(i),
+                    "samples_per_pixel",
+                    format!("{} is above the limit of {MAX_SAMPLES}", a.samples_per_pixel),
+                ));
+            }
         }
+        self.distinct_levels()?;
         self.validate_methods()?;
         for (name, p) in &s.presets {
             let table = format!("presets.{name}");
@@ -128,6 +213,15 @@ impl Design {
             }
             if p.frames == Some(0) {
                 return Err(self.invalid(&table, None, "frames", "must be at least 1"));
+            }
+            self.limits(&table, p.width, p.height, p.frames)?;
+            if let Some(n) = p.samples_per_pixel.as_ref().and_then(|v| v.iter().copied().find(|&n| n > MAX_SAMPLES)) {
+                return Err(self.invalid(
+                    &table,
+                    None,
+                    "samples_per_pixel",
+                    format!("{n} is above the limit of {MAX_SAMPLES}"),
+                ));
             }
             if let Some(spp) = &p.samples_per_pixel
                 && (spp.len() != s.factors.samples.len() || spp.contains(&0))
@@ -305,7 +399,17 @@ impl Design {
                     albedo_a: need("albedo_a", m.albedo_a)?,
                     albedo_b: need("albedo_b", m.albedo_b)?,
                     base_frequency,
-                    octaves: count("octaves", m.octaves)?,
+                    octaves: match count("octaves", m.octaves)? {
+                        n if n > MAX_OCTAVES => {
+                            return Err(self.invalid(
+                                table,
+                                Some(index),
+                                "octaves",
+                                format!("{n} is above the limit of {MAX_OCTAVES} (each octave doubles the frequency)"),
+                            ));
+                        }
+                        n => n,
+                    },
                     seed: m
                         .seed
                         .ok_or_else(|| self.invalid(table, Some(index), "seed", "kind `noise` needs this key"))?,
@@ -331,12 +435,12 @@ impl Design {
                 forbid("radiance", env.radiance.is_some())?;
                 let width =
                     env.width.ok_or_else(|| self.invalid(table, None, "width", "kind `default` needs this key"))?;
-                if width < 4 || width % 2 != 0 {
+                if !(4..=8192).contains(&width) || width % 2 != 0 {
                     return Err(self.invalid(
                         table,
                         None,
                         "width",
-                        format!("must be an even number of at least 4, found {width}"),
+                        format!("must be an even number from 4 to 8192, found {width}"),
                     ));
                 }
                 Environment::Default { width }
