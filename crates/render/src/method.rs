@@ -23,6 +23,9 @@ pub enum RenderError {
     /// The GPU failed while rendering (device lost, out of memory, a limit).
     #[error("{0}")]
     Gpu(String),
+    /// A method's settings are out of range.
+    #[error("{0}")]
+    Settings(String),
     /// A post-process filter refused its input or settings, or its device failed.
     #[error("motion blur filter: {0}")]
     Filter(String),
@@ -43,7 +46,7 @@ pub struct RenderedFrame {
 
 /// Whether this build renders with `method`.
 pub fn is_available(method: Method) -> bool {
-    matches!(method, Method::Tracer | Method::Accum | Method::Mcguire | Method::Guertin)
+    matches!(method, Method::Tracer | Method::Accum | Method::Mcguire | Method::Guertin | Method::Analytic)
 }
 
 /// Renders the frame `scene` with `method` (its default settings) on the CPU
