@@ -76,8 +76,8 @@ pub fn resolve_translucent(list: &[Interval], background: [f64; 3]) -> [f64; 3] 
         active.sort_by(|x, y| y.depth_at(m).total_cmp(&x.depth_at(m)));
         let mut c = background;
         for iv in &active {
-            for ch in 0..3 {
-                c[ch] = iv.alpha * iv.color[ch] + (1.0 - iv.alpha) * c[ch];
+            for (ch, value) in c.iter_mut().enumerate() {
+                *value = iv.alpha * iv.color[ch] + (1.0 - iv.alpha) * *value;
             }
         }
         for ch in 0..3 {
