@@ -292,6 +292,16 @@ fn triangles_sharing_an_edge_cover_without_gap_or_overlap() {
         }
     }
     assert!(interior > 50, "{interior}");
+    // A static square split along its diagonal, samples exactly on the diagonal: the edge
+    // function is zero throughout, and the tie rule gives each sample to exactly one side.
+    let sq = [v(-0.5, -0.5, 1.0), v(0.5, -0.5, 1.0), v(0.5, 0.5, 1.0), v(-0.5, 0.5, 1.0)];
+    let a = MovingTriangle::fixed([sq[0], sq[1], sq[2]], SurfaceKind::Sphere);
+    let b = MovingTriangle::fixed([sq[0], sq[2], sq[3]], SurfaceKind::Sphere);
+    for k in -31..32 {
+        let s = DVec2::splat(f64::from(k) / 64.0);
+        assert_eq!(coverage(&a, s) + coverage(&b, s), 1.0, "{s}");
+        assert_eq!(sample_coverage(&[a, b], s, 8), 1.0, "{s}");
+    }
 }
 
 fn brute_quad(a: &MovingTriangle, b: &MovingTriangle, s: DVec2) -> f64 {
@@ -450,7 +460,10 @@ fn rmse(a: &render::io::LinearImage, b: &render::io::LinearImage) -> f64 {
 
 #[test]
 fn whole_frames_approach_the_tracer_reference_as_the_budget_grows() {
-    let s = study_scene(64, 36, 1024);
+    // Zoomed in 4x on the sphere (as a 256 x 144 frame's centre): about 24 px across,
+    // moving 9 px in the exposure, over triangles of about a pixel.
+    let mut s = study_scene(64, 36, 1024);
+    s.views[0].camera.sensor_width /= 4.0;
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let reference = render::tracer::render_frame(&s, &env).eyes.remove(0);
     let mut errors = Vec::new();
@@ -461,9 +474,11 @@ fn whole_frames_approach_the_tracer_reference_as_the_budget_grows() {
         eprintln!("intervals {intervals}: RMSE {e:.5} against the tracer at 1024 spp");
         errors.push(e);
     }
-    // The reference's own noise and the one-sample-per-pixel edges bound what is reachable.
-    assert!(errors.iter().all(|e| e.is_finite() && *e < 0.05), "{errors:?}");
-    assert!(errors[5] <= errors[0] + 1e-3, "{errors:?}");
+    // Measured: 0.0216 at 4 intervals, 0.0218 from 6 to 64: the error is the one sample per
+    // pixel (the tracer box-filters the pixel; edges and texture alias) and the shading's
+    // noise, not the compression: this scene offers few intervals per pixel.
+    assert!(errors.iter().all(|e| e.is_finite() && *e < 0.03), "{errors:?}");
+    assert!(errors.iter().all(|e| (e - errors[5]).abs() < 0.003), "{errors:?}");
 }
 
 #[test]
