@@ -553,3 +553,20 @@ proptest! {
         prop_assert!((got - want).abs() <= 8.0 / 4096.0, "{got} vs {want}");
     }
 }
+
+#[test]
+fn the_benchmark_reports_time_intervals_and_machine() {
+    let design = study::design::Design::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
+    )
+    .unwrap();
+    let opts = render::analytic::bench::BenchOptions { width: 64, height: 36, rounds: 1, ..Default::default() };
+    let r = render::analytic::bench::run(&design, &opts).unwrap();
+    assert_eq!((r["width"].as_u64(), r["intervals_budget"].as_u64()), (Some(64), Some(8)));
+    assert!(r["ms_per_frame"]["mean"].as_f64().unwrap() > 0.0);
+    let mean = r["intervals_per_pixel"]["mean"].as_f64().unwrap();
+    let max = r["intervals_per_pixel"]["max"].as_u64().unwrap();
+    // Every pixel sees the floor or the sky; the sphere's pixels several triangles.
+    assert!(mean >= 0.9 && max as f64 >= mean && max >= 3, "{r}");
+    assert!(r["machine"].is_object(), "{r}");
+}
