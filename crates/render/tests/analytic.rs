@@ -524,6 +524,10 @@ fn the_renderer_dispatches_analytic_and_refuses_bad_settings() {
     let tris = scene_triangles(&s, &camera, 64);
     let sphere = tris.iter().filter(|t| t.surface == SurfaceKind::Sphere).count();
     assert_eq!(sphere, 2 * 64 * 31);
+    // About half the sphere faces away throughout the shutter and is culled.
+    let binned = render::analytic::frame::bin(&tris, &camera, 32, 18);
+    let kept = binned.iter().filter(|b| b.triangle.surface == SurfaceKind::Sphere).count();
+    assert!(kept > sphere * 4 / 10 && kept < sphere * 6 / 10, "{kept} of {sphere}");
     assert!(
         tris.iter()
             .filter(|t| t.surface == SurfaceKind::Floor)
@@ -551,6 +555,11 @@ proptest! {
         }
         let (got, want) = (coverage(&t, s), brute_coverage(&t, s, 4096));
         prop_assert!((got - want).abs() <= 8.0 / 4096.0, "{got} vs {want}");
+        // Culling a triangle that faces away throughout never removes coverage.
+        if TriangleSetup::new(&t).back_facing_throughout() {
+            prop_assert_eq!(got, 0.0);
+            prop_assert_eq!(brute_coverage(&t, s, 4096), 0.0);
+        }
     }
 }
 

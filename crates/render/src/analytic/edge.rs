@@ -131,6 +131,23 @@ impl TriangleSetup {
         TriangleSetup { edges: [edge(1, 2), edge(2, 0), edge(0, 1)], base, motion, two_sided: tri.two_sided }
     }
 
+    /// Whether the triangle is back-facing (or edge-on) at every instant of the shutter, so a
+    /// one-sided triangle covers nothing: the determinant's cubic in the Bernstein basis has
+    /// no coefficient above zero (its values on [0, 1] lie in their hull), with a margin of
+    /// rounding so a triangle turning edge-on is never culled on a rounding error.
+    pub fn back_facing_throughout(&self) -> bool {
+        if self.two_sided {
+            return false;
+        }
+        let [c0, c1, c2] = self.edges[0];
+        let (a, d) = (self.base[0], self.motion[0]);
+        let m = [a.dot(c0), a.dot(c1) + d.dot(c0), a.dot(c2) + d.dot(c1), d.dot(c2)];
+        let scale: f64 = a.abs().dot(c0.abs() + c1.abs() + c2.abs()) + d.abs().dot(c0.abs() + c1.abs() + c2.abs());
+        let margin = 1e-12 * scale;
+        let b = [m[0], m[0] + m[1] / 3.0, m[0] + (2.0 * m[1] + m[2]) / 3.0, m[0] + m[1] + m[2] + m[3]];
+        b.iter().all(|&v| v < -margin)
+    }
+
     /// The edge equations at sample point `s`.
     pub fn edge_equations(&self, s: DVec2) -> [Quadratic; 3] {
         self.edges.map(|[c0, c1, c2]| Quadratic { alpha: dot_s(c2, s), beta: dot_s(c1, s), gamma: dot_s(c0, s) })
@@ -207,6 +224,15 @@ impl TriangleSetup {
     /// The visibility function at `s` over the shutter `[0, 1]`.
     pub fn visibility(&self, s: DVec2) -> Visibility {
         let e = self.edge_equations(s);
+        let signs: &[f64] = if self.two_sided { &[1.0, -1.0] } else { &[1.0] };
+        if self.motion == [DVec3::ZERO; 3] {
+            // Static: no roots and no sign change, one piece (what the general path gives).
+            let mut vis = Visibility::EMPTY;
+            if signs.iter().any(|&sign| self.inside(&e, 0.5, sign)) {
+                vis.push(0.0, 1.0);
+            }
+            return vis;
+        }
         let mut cuts = [0.0f64; 16];
         cuts[0] = 0.0;
         let mut n = 1;
@@ -244,7 +270,6 @@ impl TriangleSetup {
             }
         }
         let mut vis = Visibility::EMPTY;
-        let signs: &[f64] = if self.two_sided { &[1.0, -1.0] } else { &[1.0] };
         for w in 1..m {
             let (a, b) = (all[w - 1], all[w]);
             if b <= a {

@@ -1,5 +1,5 @@
 //! The frame renderer: every view of a frame rasterized over the shutter. Triangles are set
-//! up once ([`TriangleSetup`]), binned into 16x16-pixel tiles by the screen bounds of their
+//! up once ([`TriangleSetup`]), those facing away for the whole shutter culled, binned into 16x16-pixel tiles by the screen bounds of their
 //! motion (the hull of the vertices' projections at open and close, or the whole image when
 //! a vertex has `w <= 0` at either end), and the tiles are rendered in parallel with rayon.
 //! Each pixel has one sample point at its centre (the paper's setting: the analytic
@@ -100,11 +100,12 @@ pub fn bin(triangles: &[MovingTriangle], camera: &CameraFrame, width: u32, heigh
     triangles
         .iter()
         .filter_map(|t| {
-            pixel_bounds(t, camera, width, height).map(|bounds| Binned {
-                triangle: *t,
-                setup: TriangleSetup::new(t),
-                bounds,
-            })
+            let setup = TriangleSetup::new(t);
+            // A one-sided triangle facing away for the whole shutter covers no sample.
+            if setup.back_facing_throughout() {
+                return None;
+            }
+            pixel_bounds(t, camera, width, height).map(|bounds| Binned { triangle: *t, setup, bounds })
         })
         .collect()
 }
