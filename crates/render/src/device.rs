@@ -237,7 +237,7 @@ impl<'env> Renderer<'env> {
             Method::Tracer => self.submit_tracer(scene, checkpoints),
             Method::Accum => Ok(Submitted::Ready(vec![self.render_accum(method, scene)?])),
             Method::Mcguire | Method::Guertin => Ok(Submitted::Ready(vec![self.render_filtered(method, scene)?])),
-            other => Err(RenderError::NotAvailable(other)),
+            Method::Analytic => Ok(Submitted::Ready(vec![self.render_analytic(method, scene)?])),
         }
     }
 
@@ -315,6 +315,19 @@ impl<'env> Renderer<'env> {
             nonfinite_samples: traced.nonfinite_samples,
             camera_samples: traced.camera_samples,
             gpu_seconds,
+        })
+    }
+
+    /// The analytic rasterizer, on the CPU whichever device is open (it has no GPU version).
+    fn render_analytic(&self, method: &MethodSpec, scene: &FrameScene) -> Result<RenderedFrame, RenderError> {
+        let settings = |e: crate::analytic::AnalyticError| RenderError::Settings(e.to_string());
+        let params = crate::analytic::AnalyticParams::from_spec(method).map_err(settings)?;
+        let frame = crate::analytic::render_frame(scene, self.env, &params).map_err(settings)?;
+        Ok(RenderedFrame {
+            image: compose_eyes(frame.eyes),
+            nonfinite_samples: frame.stats.nonfinite,
+            camera_samples: frame.lighting_samples,
+            gpu_seconds: None,
         })
     }
 

@@ -2,12 +2,14 @@
 //! method on the chosen device; `method` holds what a render gives and [`render_frame`],
 //! the CPU shorthand. `tracer` is the distribution (Monte Carlo) ray tracer whose CPU
 //! path is the reference; `env` loads, generates and importance-samples environment maps;
-//! `accum` is the accumulation buffer; `gbuffer` the G-buffer (radiance at the shutter's
+//! `accum` is the accumulation buffer; `analytic` the analytic motion blur rasterizer
+//! (Gribel et al. 2010); `gbuffer` the G-buffer (radiance at the shutter's
 //! centre, depth, analytic velocity) that the post-process motion blur `filters` read;
 //! `io` turns linear radiance into PNG/EXR files; `set` renders whole stimulus sets with
 //! manifests and resume; `numeric` holds the robust numerics every method shares.
 
 pub mod accum;
+pub mod analytic;
 pub mod device;
 pub mod env;
 pub mod filter_timing;

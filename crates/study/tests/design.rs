@@ -301,9 +301,9 @@ fn methods_design() -> Design {
 fn methods_design_adds_a_method_factor_whose_ids_name_the_method_and_share_the_tracer_seeds() {
     let d = methods_design();
     let tags: Vec<String> = d.method_tags().iter().map(|t| t.to_string()).collect();
-    assert_eq!(tags, ["tracer", "accum", "mcguire", "guertin"]);
+    assert_eq!(tags, ["tracer", "accum", "mcguire", "guertin", "analytic"]);
     let mono = d.ids(Views::Mono);
-    assert_eq!(mono.len(), 225 * 4);
+    assert_eq!(mono.len(), 225 * 5);
     assert_eq!(mono[0].to_string(), "M1-S1-T1-A1-tracer");
     assert_eq!(mono[3].to_string(), "M1-S1-T1-A1-guertin");
     for id in &mono {
@@ -323,7 +323,10 @@ fn methods_design_adds_a_method_factor_whose_ids_name_the_method_and_share_the_t
     assert_eq!((a.shutter, a.samples_per_pixel), (b.shutter, b.samples_per_pixel));
     // Ids must say their method in this design, and only here.
     assert!(
-        d.check_id(&plain).unwrap_err().to_string().contains("name a level after A (tracer, accum, mcguire, guertin)")
+        d.check_id(&plain)
+            .unwrap_err()
+            .to_string()
+            .contains("name a level after A (tracer, accum, mcguire, guertin, analytic)")
     );
     let e = navarro.check_id(&id).unwrap_err().to_string();
     assert!(e.contains("has no rendering-method factor"), "{e}");

@@ -1,6 +1,7 @@
 //! `blurlab bench ...`: benchmarks that print JSON, one submodule per measured component.
 
 pub mod analysis;
+pub mod analytic;
 pub mod filters;
 pub mod methods;
 pub mod playback;
@@ -25,6 +26,8 @@ enum Which {
     Analysis(analysis::Args),
     /// Runner: sequence decode/upload time, memory, frame pacing.
     Playback(playback::Args),
+    /// Milliseconds per frame of the analytic rasterizer, intervals per pixel.
+    Analytic(analytic::Args),
 }
 
 /// Runs the chosen benchmark.
@@ -35,5 +38,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Which::Methods(a) => methods::run(a),
         Which::Analysis(a) => analysis::run(a),
         Which::Playback(a) => playback::run(a),
+        Which::Analytic(a) => analytic::run(a),
     }
 }

@@ -55,7 +55,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     })?;
     let started = std::time::Instant::now();
     let rendered = renderer.render(&spec, &scene).map_err(|e| match e {
-        render::RenderError::NotAvailable(_) => anyhow::Error::new(BadInput(e.to_string())),
+        render::RenderError::NotAvailable(_) | render::RenderError::Settings(_) => {
+            anyhow::Error::new(BadInput(e.to_string()))
+        }
         e => anyhow::Error::new(e),
     })?;
     let (image, nonfinite) = (rendered.image, rendered.nonfinite_samples);

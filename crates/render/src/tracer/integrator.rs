@@ -87,7 +87,23 @@ impl PathTracer<'_> {
 
     /// Radiance along a camera ray; `pixel_angle` is the angle a pixel subtends.
     pub fn radiance(&self, camera_ray: Ray, sphere: &SphereState, sampler: &PixelSampler, pixel_angle: f64) -> DVec3 {
+        let first = sphere.geometry.intersect(&camera_ray, None);
+        self.radiance_from_hit(camera_ray, first, sphere, sampler, pixel_angle)
+    }
+
+    /// Radiance along a camera ray whose first hit is already known (`None`: it leaves for
+    /// the environment): the analytic rasterizer shades the surface point it found with the
+    /// tracer's lighting from there on.
+    pub fn radiance_from_hit(
+        &self,
+        camera_ray: Ray,
+        first: Option<Hit>,
+        sphere: &SphereState,
+        sampler: &PixelSampler,
+        pixel_angle: f64,
+    ) -> DVec3 {
         let geom = &sphere.geometry;
+        let mut first = Some(first);
         let mut ray = camera_ray;
         let mut l = DVec3::ZERO;
         let mut beta = DVec3::ONE;
@@ -97,7 +113,11 @@ impl PathTracer<'_> {
         let mut spread = pixel_angle;
         let mut bounce = 0u32;
         loop {
-            let Some(mut hit) = geom.intersect(&ray, skip) else {
+            let found = match first.take() {
+                Some(given) => given,
+                None => geom.intersect(&ray, skip),
+            };
+            let Some(mut hit) = found else {
                 if bounce == 0 {
                     l += beta * self.env.radiance(ray.dir);
                 } else {

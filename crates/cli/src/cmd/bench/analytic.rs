@@ -1,0 +1,74 @@
+//! `blurlab bench analytic [--json]`: milliseconds per frame of the analytic motion blur
+//! rasterizer (`render::analytic::bench`) on the design's M3-S3-T5 benchmark frame, with the
+//! average and largest number of intervals per pixel and the machine.
+
+use std::path::PathBuf;
+
+use render::analytic::AnalyticParams;
+use render::analytic::bench::{BenchOptions, run as run_bench};
+
+use crate::cmd::BadInput;
+use crate::cmd::stimuli::load_design;
+
+/// Arguments.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Print the result as JSON (otherwise a short summary).
+    #[arg(long)]
+    json: bool,
+    /// Design file whose M3-S3-T5 frame is rendered.
+    #[arg(long, default_value = "stimuli/navarro2011.toml")]
+    design: PathBuf,
+    /// Image width.
+    #[arg(long, default_value_t = 640, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 360, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: u32,
+    /// Per-pixel interval budget (4-64).
+    #[arg(long, default_value_t = 8)]
+    intervals: u32,
+    /// Sphere segments around the equator.
+    #[arg(long, default_value_t = render::analytic::DEFAULT_TESSELLATION)]
+    tessellation: u32,
+    /// Lighting samples per shading evaluation.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]
+    lighting_samples: u32,
+    /// Timed rounds (after one warm-up).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    rounds: u32,
+}
+
+/// Runs the benchmark.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let design = load_design(&args.design)?;
+    let params = AnalyticParams {
+        intervals: args.intervals,
+        tessellation: args.tessellation,
+        lighting_samples: Some(args.lighting_samples),
+    };
+    params.check().map_err(|e| BadInput(e.to_string()))?;
+    let opts = BenchOptions {
+        width: args.width,
+        height: args.height,
+        params,
+        spp: args.lighting_samples,
+        rounds: args.rounds,
+    };
+    let result = run_bench(&design, &opts).map_err(|e| anyhow::anyhow!(e))?;
+    if args.json {
+        println!("{}", serde_json::to_string(&result)?);
+    } else {
+        println!(
+            "analytic: {:.1} ms per {}x{} frame (mean of {}), {} intervals per pixel, {:.2} offered on average, {} at most",
+            result["ms_per_frame"]["mean"].as_f64().unwrap_or(f64::NAN),
+            args.width,
+            args.height,
+            args.rounds,
+            args.intervals,
+            result["intervals_per_pixel"]["mean"].as_f64().unwrap_or(f64::NAN),
+            result["intervals_per_pixel"]["max"].as_u64().unwrap_or(0),
+        );
+    }
+    Ok(())
+}

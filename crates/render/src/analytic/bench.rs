@@ -1,0 +1,72 @@
+//! The rasterizer's benchmark: milliseconds per frame of the study scene's benchmark frame
+//! (M3-S3-T5, the sphere nearest the image centre, `crate::tracer::bench::benchmark_frame`)
+//! at a given size and interval budget, with the average and largest number of intervals
+//! offered per pixel (the paper reports 16 s per frame single-threaded, and 7.2 and 177
+//! intervals for its bunny scene), and the machine. `blurlab bench analytic` prints it.
+
+use std::time::Instant;
+
+use serde_json::{Value, json};
+use study::design::Design;
+
+use super::{AnalyticParams, render_frame};
+use crate::env::EnvironmentMap;
+
+/// What to measure.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchOptions {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// The rasterizer's settings.
+    pub params: AnalyticParams,
+    /// Lighting samples per shading evaluation (the frame's A1 level by default).
+    pub spp: u32,
+    /// Timed rounds (after one untimed warm-up).
+    pub rounds: u32,
+}
+
+impl Default for BenchOptions {
+    fn default() -> Self {
+        BenchOptions { width: 640, height: 360, params: AnalyticParams::default(), spp: 4, rounds: 3 }
+    }
+}
+
+/// Renders the benchmark frame of `design` `opts.rounds` times and reports the timings.
+pub fn run(design: &Design, opts: &BenchOptions) -> Result<Value, String> {
+    let mut scene = crate::tracer::bench::benchmark_frame(design, opts.spp, false).map_err(|e| e.to_string())?;
+    for view in &mut scene.views {
+        (view.camera.width, view.camera.height) = (opts.width, opts.height);
+    }
+    let env = EnvironmentMap::from_lighting(&scene.lighting).map_err(|e| e.to_string())?;
+    let warm = render_frame(&scene, &env, &opts.params).map_err(|e| e.to_string())?;
+    let mut ms = Vec::new();
+    for _ in 0..opts.rounds.max(1) {
+        let start = Instant::now();
+        let frame = render_frame(&scene, &env, &opts.params).map_err(|e| e.to_string())?;
+        ms.push(start.elapsed().as_secs_f64() * 1e3);
+        std::hint::black_box(frame);
+    }
+    let mean = ms.iter().sum::<f64>() / ms.len() as f64;
+    let best = ms.iter().copied().fold(f64::INFINITY, f64::min);
+    let st = warm.stats;
+    Ok(json!({
+        "benchmark": "analytic",
+        "stimulus": "M3-S3-T5",
+        "frame": scene.frame,
+        "width": opts.width,
+        "height": opts.height,
+        "intervals_budget": opts.params.intervals,
+        "tessellation": opts.params.tessellation,
+        "lighting_samples": opts.params.lighting_samples.unwrap_or(opts.spp),
+        "threads": rayon::current_num_threads(),
+        "ms_per_frame": { "mean": mean, "best": best, "rounds": ms },
+        "intervals_per_pixel": { "mean": st.mean_intervals(), "max": st.max_intervals },
+        "shaded_intervals": st.shaded,
+        "merges": st.merges,
+        "paper_ms_per_frame_single_threaded": 16000.0,
+        "target_ms_per_frame": 500.0,
+        "machine": crate::tracer::bench::machine_json(),
+    }))
+}

@@ -1,0 +1,215 @@
+//! The study scene as moving triangles in camera space: the rolling sphere tessellated into
+//! a UV sphere whose vertices move linearly from their positions at shutter open to those at
+//! shutter close (the paper's assumption: the rolling's rotation within one shutter is
+//! replaced by straight vertex paths), and the static floor, clipped to the camera's near
+//! plane once, so none of its vertices ever has `w <= 0`.
+//!
+//! Camera space is `(x, y, w) = (d.right, d.up, d.forward)` with `d` the offset from the
+//! centre of projection; a pixel's sample point is `s = (sx, sy, 1)` on the plane `w = 1`
+//! ([`CameraFrame::sample`]), so the ray through it is the tracer's camera ray. Triangles
+//! are wound so that a front-facing one has a positive determinant `p0 . (p1 x p2)`.
+
+use glam::{DVec2, DVec3};
+use study::scene::{Camera, FrameScene};
+
+/// Which surface a triangle belongs to (what shading evaluates there).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SurfaceKind {
+    /// The rolling sphere.
+    Sphere,
+    /// The floor.
+    Floor,
+}
+
+/// A triangle whose vertices move linearly in camera space over the normalised shutter
+/// time `t` in [0, 1]: `p(t) = open + t (close - open)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MovingTriangle {
+    /// Vertices at shutter open (camera space).
+    pub open: [DVec3; 3],
+    /// Vertices at shutter close (camera space).
+    pub close: [DVec3; 3],
+    /// The surface it belongs to.
+    pub surface: SurfaceKind,
+    /// Whether its back side is drawn too (false: back-facing instants are culled).
+    pub two_sided: bool,
+}
+
+impl MovingTriangle {
+    /// A triangle that does not move.
+    pub fn fixed(v: [DVec3; 3], surface: SurfaceKind) -> Self {
+        MovingTriangle { open: v, close: v, surface, two_sided: false }
+    }
+
+    /// The vertices at normalised time `t`.
+    pub fn at(&self, t: f64) -> [DVec3; 3] {
+        [0, 1, 2].map(|i| self.open[i] + (self.close[i] - self.open[i]) * t)
+    }
+
+    /// Whether the triangle is the same at every instant.
+    pub fn is_static(&self) -> bool {
+        self.open == self.close
+    }
+}
+
+/// A camera reduced to what the rasterizer needs: world-to-camera-space and the sample point
+/// of a continuous pixel position.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraFrame {
+    /// Centre of projection (world).
+    pub origin: DVec3,
+    /// Right axis (world).
+    pub right: DVec3,
+    /// Up axis (world).
+    pub up: DVec3,
+    /// Viewing axis (world).
+    pub forward: DVec3,
+    /// Pixel width, height in sensor units divided by the focal length.
+    step: DVec2,
+    /// The sample point of pixel position (0, 0).
+    corner: DVec2,
+}
+
+impl CameraFrame {
+    /// Prepares `camera`.
+    pub fn new(camera: &Camera) -> Self {
+        let (w, h) = (f64::from(camera.width), f64::from(camera.height));
+        let f = camera.focal_length;
+        let sh = camera.sensor_height();
+        CameraFrame {
+            origin: camera.position,
+            right: camera.right,
+            up: camera.up,
+            forward: camera.forward,
+            step: DVec2::new(camera.sensor_width / w / f, -sh / h / f),
+            corner: DVec2::new(
+                (camera.sensor_shift.x - 0.5 * camera.sensor_width) / f,
+                (camera.sensor_shift.y + 0.5 * sh) / f,
+            ),
+        }
+    }
+
+    /// A world point in camera space.
+    pub fn to_camera(&self, p: DVec3) -> DVec3 {
+        let d = p - self.origin;
+        DVec3::new(d.dot(self.right), d.dot(self.up), d.dot(self.forward))
+    }
+
+    /// A camera-space point in the world.
+    pub fn to_world(&self, q: DVec3) -> DVec3 {
+        self.origin + self.right * q.x + self.up * q.y + self.forward * q.z
+    }
+
+    /// The sample point `(sx, sy)` (of `s = (sx, sy, 1)`) at continuous pixel coordinates
+    /// (x right, y down).
+    pub fn sample(&self, pixel: DVec2) -> DVec2 {
+        self.corner + self.step * pixel
+    }
+
+    /// The unit world direction of the ray through sample point `s`.
+    pub fn direction(&self, s: DVec2) -> DVec3 {
+        (self.forward + self.right * s.x + self.up * s.y).normalize()
+    }
+}
+
+/// The unit UV sphere of `segments` around the equator and `segments / 2` rings (at least
+/// 2) from pole to pole: vertices, and triangles wound outward (`(v1 - v0) x (v2 - v0)` points
+/// away from the centre).
+pub fn unit_sphere(segments: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let n = segments.max(3);
+    let rings = (n / 2).max(2);
+    let mut vertices = vec![DVec3::Y];
+    for i in 1..rings {
+        let theta = std::f64::consts::PI * f64::from(i) / f64::from(rings);
+        for j in 0..n {
+            let phi = std::f64::consts::TAU * f64::from(j) / f64::from(n);
+            vertices.push(DVec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+        }
+    }
+    let south = vertices.len() as u32;
+    vertices.push(-DVec3::Y);
+    let ring = |i: u32, j: u32| 1 + (i - 1) * n + j % n;
+    let mut tris = Vec::new();
+    for j in 0..n {
+        tris.push([0, ring(1, j), ring(1, j + 1)]);
+        tris.push([south, ring(rings - 1, j + 1), ring(rings - 1, j)]);
+        for i in 1..rings - 1 {
+            let (a, b, c, d) = (ring(i, j), ring(i, j + 1), ring(i + 1, j), ring(i + 1, j + 1));
+            tris.push([a, c, d]);
+            tris.push([a, d, b]);
+        }
+    }
+    for t in &mut tris {
+        let [a, b, c] = t.map(|i| vertices[i as usize]);
+        if (b - a).cross(c - a).dot(a + b + c) < 0.0 {
+            t.swap(1, 2);
+        }
+    }
+    (vertices, tris)
+}
+
+/// Half the side of the floor square around the camera (metres): beyond it is sky.
+pub const FLOOR_EXTENT: f64 = 1000.0;
+/// The near plane the floor is clipped to (metres of view depth).
+pub const NEAR: f64 = 1e-3;
+
+/// The convex polygon `poly` (camera space) clipped to `w >= near` (Sutherland-Hodgman).
+pub fn clip_near(poly: &[DVec3], near: f64) -> Vec<DVec3> {
+    let mut out = Vec::with_capacity(poly.len() + 1);
+    for (i, &a) in poly.iter().enumerate() {
+        let b = poly[(i + 1) % poly.len()];
+        let (da, db) = (a.z - near, b.z - near);
+        if da >= 0.0 {
+            out.push(a);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let u = da / (da - db);
+            let mut p = a + (b - a) * u;
+            p.z = near;
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// The triangles of `scene` seen from `camera`: the sphere tessellated with `segments`
+/// around its equator, moving between shutter open and close, then the floor.
+pub fn scene_triangles(scene: &FrameScene, camera: &CameraFrame, segments: u32) -> Vec<MovingTriangle> {
+    let sphere = &scene.sphere;
+    let (open, close) = (scene.shutter.open, scene.shutter.close.max(scene.shutter.open));
+    let c_open = sphere.centre_at(open);
+    // The centre moves in a straight line within one exposure (no wrap inside a shutter).
+    let c_close = c_open + sphere.velocity * (close - open);
+    let (q_open, q_close) = (sphere.orientation_at(open), sphere.orientation_at(close));
+    let (unit, tris) = unit_sphere(segments);
+    let at_open: Vec<DVec3> = unit.iter().map(|&v| camera.to_camera(c_open + q_open * (v * sphere.radius))).collect();
+    let at_close: Vec<DVec3> = if scene.needs_time_sampling() {
+        unit.iter().map(|&v| camera.to_camera(c_close + q_close * (v * sphere.radius))).collect()
+    } else {
+        at_open.clone()
+    };
+    let mut out: Vec<MovingTriangle> = tris
+        .iter()
+        .map(|t| MovingTriangle {
+            open: t.map(|i| at_open[i as usize]),
+            close: t.map(|i| at_close[i as usize]),
+            surface: SurfaceKind::Sphere,
+            two_sided: false,
+        })
+        .collect();
+    let h = scene.floor.height;
+    let (ox, oz) = (camera.origin.x, camera.origin.z);
+    let e = FLOOR_EXTENT;
+    let quad = [
+        DVec3::new(ox - e, h, oz - e),
+        DVec3::new(ox - e, h, oz + e),
+        DVec3::new(ox + e, h, oz + e),
+        DVec3::new(ox + e, h, oz - e),
+    ]
+    .map(|p| camera.to_camera(p));
+    let poly = clip_near(&quad, NEAR);
+    for i in 1..poly.len().saturating_sub(1) {
+        out.push(MovingTriangle::fixed([poly[0], poly[i], poly[i + 1]], SurfaceKind::Floor));
+    }
+    out
+}
