@@ -207,9 +207,20 @@ fn render_frame_writes_png_and_exr() {
     // Every method of the design model renders (the analytic rasterizer last to land); a
     // method it does not know is refused.
     let g = dir.path().join("g.png");
-    let o = run(&["render-frame", "--design", &d, "--preset", "quick", "M2-S2-T3-A1", "--method", "analytic", "--out", g.to_str().unwrap()]);
+    let o = run(&[
+        "render-frame",
+        "--design",
+        &d,
+        "--preset",
+        "quick",
+        "M2-S2-T3-A1",
+        "--method",
+        "analytic",
+        "--out",
+        g.to_str().unwrap(),
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert_eq!(image_size(&g), (320, 90));
+    assert_eq!(image_size(&g), (160, 90));
     let f = dir.path().join("h.png");
     let o = run(&["render-frame", "--design", &d, "M2-S2-T3-A1", "--method", "raster", "--out", f.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
