@@ -395,6 +395,8 @@ fn sizes_beyond_the_limits_are_errors_naming_key_and_limit() {
             "samples_per_pixel`: 4000000000 is above the limit of 1048576",
         ),
         ("width = 1024 }", "width = 4000000000 }", "must be an even number from 4 to 8192, found 4000000000"),
+        // Found by the fuzz test: the message's end frame overflowed u32.
+        ("first_frame = 17", "first_frame = 4294967295", "frames 4294967295..4294967303 lie beyond"),
     ] {
         let text = shipped_text().replacen(from, to, 1);
         assert_ne!(text, shipped_text(), "{from}");

@@ -242,7 +242,7 @@ impl Design {
                     "first_frame",
                     format!(
                         "frames {first}..{} lie beyond the sequence's {} frames",
-                        first + frames,
+                        u64::from(first) + u64::from(frames),
                         s.sequence.frames
                     ),
                 ));
