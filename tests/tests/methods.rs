@@ -106,6 +106,8 @@ fn a_methods_set_renders_is_judged_and_grouped_by_method() {
         &set_arg,
         "--experiments",
         repo_root().join("experiments").to_str().unwrap(),
+        "--out",
+        dir.path().join("report").to_str().unwrap(),
         "--json",
     ]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
