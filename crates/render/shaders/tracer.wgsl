@@ -617,18 +617,23 @@ fn cosine_sample(n: vec3<f32>, u: vec2<f32>) -> Direction {
 }
 
 fn radiance(s: SphereAt, seed: u32, index: u32, camera_dir: vec3<f32>) -> vec3<f32> {
+    let first = intersect(params.cam_origin.xyz, camera_dir, NONE, s, params.wrap_jump.w);
+    return radiance_from(s, seed, index, camera_dir, first);
+}
+
+// Radiance along a camera ray whose first hit is `first` (the analytic rasterizer gives its
+// own; `radiance` intersects the scene).
+fn radiance_from(s: SphereAt, seed: u32, index: u32, camera_dir: vec3<f32>, first: Hit) -> vec3<f32> {
     let floor_h = params.wrap_jump.w;
-    var o = params.cam_origin.xyz;
     var d = camera_dir;
+    var hit = first;
     var l = vec3<f32>(0.0);
     var beta = vec3<f32>(1.0);
-    var skip = NONE;
     var prev_bsdf_pdf = 0.0;
     var cone_width = 0.0;
     var spread = params.cam_origin.w;
     var bounce = 0u;
     loop {
-        var hit = intersect(o, d, skip, s, floor_h);
         if hit.surface == NONE {
             let th = texel_of(d);
             let le = env_texel(th.index);
@@ -695,12 +700,12 @@ fn radiance(s: SphereAt, seed: u32, index: u32, camera_dir: vec3<f32>) -> vec3<f
         if beta.x == 0.0 && beta.y == 0.0 && beta.z == 0.0 {
             break;
         }
-        o = offset_origin(hit.point, hit.normal);
+        let o = offset_origin(hit.point, hit.normal);
         d = next.dir;
-        skip = leave_skip;
         prev_bsdf_pdf = next.pdf;
         cone_width = footprint;
         spread = max(spread, DIFFUSE_SPREAD);
+        hit = intersect(o, d, leave_skip, s, floor_h);
     }
     return l;
 }

@@ -13,6 +13,7 @@ use study::manifest::GpuRecord;
 use study::method::MethodSpec;
 use study::scene::FrameScene;
 
+use crate::analytic::gpu::{GpuAnalytic, GpuAnalyticError};
 use crate::env::EnvironmentMap;
 use crate::filters::{FilterError, GpuFilters};
 use crate::gbuffer::{centre_time, gbuffers, instant_scene};
@@ -84,6 +85,7 @@ struct GpuDevice {
     tracer: GpuTracer,
     env: GpuEnvironment,
     filters: GpuFilters,
+    analytic: GpuAnalytic,
 }
 
 /// The eyes of one tracer render and what it cost.
@@ -166,9 +168,10 @@ impl<'env> Renderer<'env> {
         let filters = GpuFilters::new(ctx.clone())
             .map_err(|e| DeviceError::Filters { adapter: adapter.clone(), source: Box::new(e) });
         let opened = filters.and_then(|filters| {
-            GpuTracer::new(ctx)
-                .map_err(|e| setup(e.into()))
-                .and_then(|tracer| Ok(GpuDevice { env: tracer.environment(env).map_err(setup)?, tracer, filters }))
+            let analytic = GpuAnalytic::new(ctx.clone()).map_err(|e| setup(e.into()))?;
+            GpuTracer::new(ctx).map_err(|e| setup(e.into())).and_then(|tracer| {
+                Ok(GpuDevice { env: tracer.environment(env).map_err(setup)?, tracer, filters, analytic })
+            })
         });
         match opened {
             Ok(gpu) => Ok(Renderer { env, gpu: Some(gpu) }),
@@ -318,16 +321,22 @@ impl<'env> Renderer<'env> {
         })
     }
 
-    /// The analytic rasterizer, on the CPU whichever device is open (it has no GPU version).
+    /// The analytic rasterizer: its WGSL kernel on a GPU, else the f64 CPU rasterizer.
     fn render_analytic(&self, method: &MethodSpec, scene: &FrameScene) -> Result<RenderedFrame, RenderError> {
         let settings = |e: crate::analytic::AnalyticError| RenderError::Settings(e.to_string());
         let params = crate::analytic::AnalyticParams::from_spec(method).map_err(settings)?;
-        let frame = crate::analytic::render_frame(scene, self.env, &params).map_err(settings)?;
+        let frame = match &self.gpu {
+            Some(d) => d.analytic.render_frame(scene, &d.env, &params).map_err(|e| match e {
+                GpuAnalyticError::Settings(e) => settings(e),
+                e => RenderError::Gpu(e.to_string()),
+            })?,
+            None => crate::analytic::render_frame(scene, self.env, &params).map_err(settings)?,
+        };
         Ok(RenderedFrame {
             image: compose_eyes(frame.eyes),
             nonfinite_samples: frame.stats.nonfinite,
             camera_samples: frame.lighting_samples,
-            gpu_seconds: None,
+            gpu_seconds: frame.gpu_seconds,
         })
     }
 

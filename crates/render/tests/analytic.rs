@@ -440,15 +440,7 @@ fn the_fence_at_500_pixels_per_frame_is_a_bounded_failure_at_16_intervals() {
 }
 
 fn study_scene(width: u32, height: u32, spp: u32) -> study::scene::FrameScene {
-    let design = study::design::Design::load(
-        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
-    )
-    .unwrap();
-    let mut s = render::tracer::bench::benchmark_frame(&design, spp, false).unwrap();
-    for view in &mut s.views {
-        (view.camera.width, view.camera.height) = (width, height);
-    }
-    s
+    common::study_frame(width, height, spp, 1.0)
 }
 
 fn rmse(a: &render::io::LinearImage, b: &render::io::LinearImage) -> f64 {

@@ -110,6 +110,22 @@ pub fn bin(triangles: &[MovingTriangle], camera: &CameraFrame, width: u32, heigh
         .collect()
 }
 
+/// The indices into `binned` of the triangles whose bounds meet each `tile` x `tile`-pixel
+/// tile of a `width` x `height` image, tiles in rows, triangles in order.
+pub fn tile_bins(binned: &[Binned], width: u32, height: u32, tile: u32) -> Vec<Vec<u32>> {
+    let (tw, th) = (width.div_ceil(tile), height.div_ceil(tile));
+    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); (tw * th) as usize];
+    for (i, b) in binned.iter().enumerate() {
+        let [x0, x1, y0, y1] = b.bounds;
+        for ty in y0 / tile..y1.div_ceil(tile).min(th) {
+            for tx in x0 / tile..x1.div_ceil(tile).min(tw) {
+                bins[(ty * tw + tx) as usize].push(i as u32);
+            }
+        }
+    }
+    bins
+}
+
 /// The interval list of one sample point `s` at pixel `(x, y)` after every triangle of
 /// `tris` (in order) has been inserted and the list compressed to `budget` with search
 /// range `range`. `shade(binned, interval, index)` gives a kept interval's colour and its
@@ -184,15 +200,7 @@ where
 {
     let binned = bin(triangles, camera, width, height);
     let (tw, th) = (width.div_ceil(TILE), height.div_ceil(TILE));
-    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); (tw * th) as usize];
-    for (i, b) in binned.iter().enumerate() {
-        let [x0, x1, y0, y1] = b.bounds;
-        for ty in y0 / TILE..y1.div_ceil(TILE).min(th) {
-            for tx in x0 / TILE..x1.div_ceil(TILE).min(tw) {
-                bins[(ty * tw + tx) as usize].push(i as u32);
-            }
-        }
-    }
+    let bins = tile_bins(&binned, width, height, TILE);
     let tiles: Vec<(Vec<[f32; 3]>, RasterStats)> = (0..tw * th)
         .into_par_iter()
         .map(|tile| {

@@ -11,6 +11,8 @@
 //! Eq. 20), [`resolve`] (the sweep over time, opaque and translucent), [`shade`] (one
 //! evaluation per interval at its midpoint with the tracer's material and lighting code),
 //! [`frame`] (tiles in parallel, deterministic), and [`bench`] (milliseconds per frame).
+//! [`gpu`] is the same rasterizer as a WGSL compute kernel (the paper's future work), with
+//! its f32 CPU twin; `render::Renderer` uses it wherever a GPU is open.
 //! [`accuracy`] holds the measurements the tests check (the depth approximation's error
 //! histogram of the paper's Figure 10).
 //!
@@ -24,6 +26,7 @@ pub mod bench;
 pub mod edge;
 pub mod frame;
 pub mod geometry;
+pub mod gpu;
 pub mod interval;
 pub mod resolve;
 pub mod shade;
@@ -115,6 +118,8 @@ pub struct AnalyticFrame {
     pub stats: RasterStats,
     /// Lighting samples taken (shaded intervals x lighting samples).
     pub lighting_samples: u64,
+    /// GPU time of the kernel's dispatches (timestamps), when rendered on a GPU that has them.
+    pub gpu_seconds: Option<f64>,
 }
 
 /// Renders every view of `scene` lit by `env`.
@@ -153,5 +158,5 @@ pub fn render_frame(
         stats.add(&st);
         eyes.push(LinearImage { width: cam.width, height: cam.height, pixels });
     }
-    Ok(AnalyticFrame { eyes, lighting_samples: stats.shaded * u64::from(lighting), stats })
+    Ok(AnalyticFrame { eyes, lighting_samples: stats.shaded * u64::from(lighting), stats, gpu_seconds: None })
 }

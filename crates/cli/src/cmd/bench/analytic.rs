@@ -37,6 +37,10 @@ pub struct Args {
     /// Timed rounds (after one warm-up).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
     rounds: u32,
+    /// Also time the WGSL kernel on a GPU (hardware first, else a software adapter) in the
+    /// same run, with its speed-up over the CPU rasterizer.
+    #[arg(long)]
+    gpu: bool,
 }
 
 /// Runs the benchmark.
@@ -54,6 +58,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         params,
         spp: args.lighting_samples,
         rounds: args.rounds,
+        gpu: args.gpu,
     };
     let result = run_bench(&design, &opts).map_err(|e| anyhow::anyhow!(e))?;
     if args.json {
@@ -69,6 +74,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             result["intervals_per_pixel"]["mean"].as_f64().unwrap_or(f64::NAN),
             result["intervals_per_pixel"]["max"].as_u64().unwrap_or(0),
         );
+        if let Some(g) = result.get("gpu").filter(|g| !g.is_null()) {
+            println!(
+                "analytic on {}: {:.1} ms per frame (wall, mean), {:.1}x the CPU rasterizer's speed",
+                g["adapter"].as_str().unwrap_or("?"),
+                g["ms_per_frame_wall"]["mean"].as_f64().unwrap_or(f64::NAN),
+                g["cpu_over_gpu_wall"].as_f64().unwrap_or(f64::NAN),
+            );
+        }
     }
     Ok(())
 }

@@ -44,19 +44,19 @@ const HIT_POINT_ERROR: f32 = 16.0 * f32::EPSILON;
 /// 1 / 65535, the weight of one step of a 16-bit cumulative table.
 const CDF_STEP: f32 = 1.0 / 65535.0;
 
-fn xyz(v: [f32; 4]) -> Vec3 {
+pub(crate) fn xyz(v: [f32; 4]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
 }
 
-fn cross3(a: Vec3, b: Vec3) -> Vec3 {
+pub(crate) fn cross3(a: Vec3, b: Vec3) -> Vec3 {
     Vec3::new(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x)
 }
 
-fn dot3(a: Vec3, b: Vec3) -> f32 {
+pub(crate) fn dot3(a: Vec3, b: Vec3) -> f32 {
     a.x * b.x + a.y * b.y + a.z * b.z
 }
 
-fn normalize3(v: Vec3) -> Vec3 {
+pub(crate) fn normalize3(v: Vec3) -> Vec3 {
     v / dot3(v, v).sqrt()
 }
 
@@ -109,24 +109,24 @@ pub fn atan2_poly(y: f32, x: f32) -> f32 {
 
 /// The sphere at one sample's time.
 #[derive(Clone, Copy, Debug)]
-struct SphereAt {
-    centre: Vec3,
-    radius: f32,
+pub(crate) struct SphereAt {
+    pub(crate) centre: Vec3,
+    pub(crate) radius: f32,
     /// Spin since the opening: (sin, cos) of minus the angle, about `FrameParams::spin`.
-    spin_sc: (f32, f32),
+    pub(crate) spin_sc: (f32, f32),
 }
 
 /// Hit surfaces (as in WGSL: 0 none, 1 sphere, 2 floor).
-const NONE: u32 = 0;
-const SPHERE: u32 = 1;
-const FLOOR: u32 = 2;
+pub(crate) const NONE: u32 = 0;
+pub(crate) const SPHERE: u32 = 1;
+pub(crate) const FLOOR: u32 = 2;
 
 #[derive(Clone, Copy, Debug)]
-struct Hit {
-    t: f32,
-    point: Vec3,
-    normal: Vec3,
-    surface: u32,
+pub(crate) struct Hit {
+    pub(crate) t: f32,
+    pub(crate) point: Vec3,
+    pub(crate) normal: Vec3,
+    pub(crate) surface: u32,
 }
 
 fn intersect_sphere(o: Vec3, d: Vec3, centre: Vec3, radius: f32) -> f32 {
@@ -204,7 +204,7 @@ fn is_bad(x: f32) -> bool {
     (x.to_bits() & 0x7f80_0000) == 0x7f80_0000
 }
 
-fn is_finite3(v: Vec3) -> bool {
+pub(crate) fn is_finite3(v: Vec3) -> bool {
     !(is_bad(v.x) || is_bad(v.y) || is_bad(v.z))
 }
 
@@ -218,7 +218,7 @@ fn env_u16(env: &[u32], offset: u32, i: u32) -> u32 {
     (env[(offset + (i >> 1)) as usize] >> ((i & 1) * 16)) & 0xffff
 }
 
-fn env_texel(env: &[u32], index: u32) -> Vec3 {
+pub(crate) fn env_texel(env: &[u32], index: u32) -> Vec3 {
     Vec3::new(env_f32(env, 3 * index), env_f32(env, 3 * index + 1), env_f32(env, 3 * index + 2))
 }
 
@@ -239,7 +239,7 @@ fn col_after(p: &FrameParams, env: &[u32], m: Vec3, j: u32) -> bool {
 }
 
 /// The texel a finite non-zero world direction falls in: (index, cell x, cell y, sin theta).
-fn texel_of(p: &FrameParams, env: &[u32], d: Vec3) -> (u32, u32, u32, f32) {
+pub(crate) fn texel_of(p: &FrameParams, env: &[u32], d: Vec3) -> (u32, u32, u32, f32) {
     let (rc, rs) = (p.env_rot_cos, p.env_rot_sin);
     let m = Vec3::new(rc * d.x - rs * d.z, d.y, rs * d.x + rc * d.z);
     let inv_len = 1.0 / dot3(m, m).sqrt();
@@ -450,18 +450,33 @@ fn radiance(
     index: u32,
     camera_dir: Vec3,
 ) -> Vec3 {
+    let first = intersect(xyz(p.cam_origin), camera_dir, NONE, s, p.wrap_jump[3]);
+    radiance_from(p, spec, env, s, seed, index, camera_dir, first)
+}
+
+/// Radiance along a camera ray whose first hit is `first` (the analytic rasterizer's GPU
+/// twin gives its own; [`radiance`] intersects the scene).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn radiance_from(
+    p: &FrameParams,
+    spec: &Specialisation,
+    env: &[u32],
+    s: &SphereAt,
+    seed: u32,
+    index: u32,
+    camera_dir: Vec3,
+    first: Hit,
+) -> Vec3 {
     let floor_h = p.wrap_jump[3];
-    let mut o = xyz(p.cam_origin);
     let mut d = camera_dir;
+    let mut hit = first;
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
-    let mut skip = NONE;
     let mut prev_bsdf_pdf = 0.0f32;
     let mut cone_width = 0.0f32;
     let mut spread = p.cam_origin[3];
     let mut bounce = 0u32;
     loop {
-        let mut hit = intersect(o, d, skip, s, floor_h);
         if hit.surface == NONE {
             let (texel, cx, cy, sin_theta) = texel_of(p, env, d);
             let le = env_texel(env, texel);
@@ -525,12 +540,12 @@ fn radiance(
         if beta.x == 0.0 && beta.y == 0.0 && beta.z == 0.0 {
             break;
         }
-        o = offset_origin(hit.point, hit.normal);
+        let o = offset_origin(hit.point, hit.normal);
         d = wi;
-        skip = leave_skip;
         prev_bsdf_pdf = pdf;
         cone_width = footprint;
         spread = spread.max(DIFFUSE_SPREAD);
+        hit = intersect(o, d, leave_skip, s, floor_h);
     }
     l
 }

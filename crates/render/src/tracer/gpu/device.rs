@@ -62,6 +62,11 @@ impl GpuEnvironment {
     pub fn tables(&self) -> &EnvTables {
         &self.tables
     }
+
+    /// The tables' buffer (what kernels bind).
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        &self.buffer
+    }
 }
 
 /// A rendered frame of the GPU tracer.

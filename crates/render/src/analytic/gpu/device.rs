@@ -1,0 +1,291 @@
+//! The host of the analytic kernel: [`GpuAnalytic`] compiles `shaders/analytic.wgsl` (which
+//! includes the tracer's kernel for its integrator) once per specialisation and renders a
+//! frame's views. The per-pixel interval lists live in one storage buffer of `budget + 1`
+//! entries per pixel; an image whose lists would exceed [`LIST_BYTES`] (or the device's
+//! storage binding limit) is rendered in bands of rows that reuse it, one dispatch per band,
+//! all in one compute pass (wgpu orders the dispatches' storage accesses).
+
+use std::collections::HashMap;
+use std::sync::Mutex;
+
+use gpu::wgpu::util::DeviceExt as _;
+use gpu::{GpuContext, GpuError, GpuInfo, TimingSource, wgpu};
+use study::scene::FrameScene;
+
+use super::{ANALYTIC_STREAM, GpuInterval, PixelStats, Prepared};
+use crate::analytic::frame::RasterStats;
+use crate::analytic::{AnalyticError, AnalyticFrame, AnalyticParams};
+use crate::io::LinearImage;
+use crate::tracer::gpu::params::{ParamsError, Specialisation};
+use crate::tracer::gpu::{GpuEnvironment, assembler};
+
+/// The most bytes of interval lists one band uses (64 MiB: a 640-pixel row at a budget of 8
+/// is 184 KiB, so the study's frames are one band up to a budget of 11).
+pub const LIST_BYTES: u64 = 64 << 20;
+const WORKGROUP: u32 = 8;
+
+/// Errors of the GPU rasterizer.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuAnalyticError {
+    /// The device failed or rejected the work.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    /// The frame cannot be expressed in the kernel's parameters.
+    #[error("GPU analytic rasterizer: {0}")]
+    Params(#[from] ParamsError),
+    /// Settings outside their ranges.
+    #[error(transparent)]
+    Settings(#[from] AnalyticError),
+    /// The frame needs more than the device allows.
+    #[error("GPU analytic rasterizer on {adapter}: {what}")]
+    Limit {
+        /// The adapter.
+        adapter: String,
+        /// The limit and the need.
+        what: String,
+    },
+}
+
+/// One view rendered by the kernel, with what the tests compare.
+#[derive(Clone, Debug)]
+pub struct GpuView {
+    /// Linear radiance (or coverage colours when not shading).
+    pub image: LinearImage,
+    /// The fraction of the shutter covered, per pixel.
+    pub coverage: Vec<f32>,
+    /// Counts per pixel.
+    pub stats: Vec<PixelStats>,
+    /// GPU time of the dispatches (timestamps where the device has them, else wall time).
+    pub seconds: f64,
+    /// Which clock `seconds` is.
+    pub timing_source: TimingSource,
+}
+
+/// The analytic rasterizer's kernel on one device.
+pub struct GpuAnalytic {
+    ctx: GpuContext,
+    module: wgpu::ShaderModule,
+    layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+    pipelines: Mutex<HashMap<(Specialisation, bool), wgpu::ComputePipeline>>,
+}
+
+/// The assembled kernel: `analytic.wgsl` with the tracer's kernel and sampler included.
+pub fn kernel_source() -> Result<String, GpuError> {
+    let mut a = assembler().with_include("tracer", include_str!("../../../shaders/tracer.wgsl"));
+    a.constant_u32("ANALYTIC_STREAM", ANALYTIC_STREAM).constant_u32("ANALYTIC_TILE", super::TILE);
+    a.assemble("analytic.wgsl", include_str!("../../../shaders/analytic.wgsl"))
+}
+
+/// Sums the per-pixel counts into the CPU rasterizer's [`RasterStats`].
+pub fn raster_stats(stats: &[PixelStats]) -> RasterStats {
+    let mut out = RasterStats::default();
+    for s in stats {
+        out.pixels += 1;
+        out.intervals += u64::from(s.offered);
+        out.max_intervals = out.max_intervals.max(s.offered);
+        out.shaded += u64::from(s.kept);
+        out.merges += u64::from(s.merges);
+        out.nonfinite += u64::from(s.nonfinite);
+    }
+    out
+}
+
+impl GpuAnalytic {
+    /// Validates and compiles the kernel on `ctx`'s device.
+    pub fn new(ctx: GpuContext) -> Result<Self, GpuError> {
+        let source = kernel_source()?;
+        gpu::validate_wgsl("analytic.wgsl", &source)?;
+        let module = ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("analytic.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+            count: None,
+        };
+        let read = wgpu::BufferBindingType::Storage { read_only: true };
+        let write = wgpu::BufferBindingType::Storage { read_only: false };
+        // Explicit, so the coverage specialisation (which reads no environment) binds the same.
+        let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("analytic"),
+            entries: &[
+                entry(0, read),
+                entry(1, read),
+                entry(4, wgpu::BufferBindingType::Uniform),
+                entry(5, read),
+                entry(6, read),
+                entry(7, write),
+                entry(8, write),
+                entry(9, write),
+            ],
+        });
+        let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("analytic"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        Ok(GpuAnalytic { ctx, module, layout, pipeline_layout, pipelines: Mutex::new(HashMap::new()) })
+    }
+
+    /// The adapter and device.
+    pub fn info(&self) -> &GpuInfo {
+        &self.ctx.info
+    }
+
+    fn limit(&self, what: String) -> GpuAnalyticError {
+        GpuAnalyticError::Limit { adapter: self.ctx.info.short(), what }
+    }
+
+    fn pipeline(&self, spec: Specialisation, shade: bool) -> Result<wgpu::ComputePipeline, GpuError> {
+        let mut pipelines = self.pipelines.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(p) = pipelines.get(&(spec, shade)) {
+            return Ok(p.clone());
+        }
+        let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let [a, b] = spec.constants();
+        let constants = [a, b, ("SHADE", if shade { 1.0 } else { 0.0 })];
+        let pipeline = self.ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("analytic_pixel"),
+            layout: Some(&self.pipeline_layout),
+            module: &self.module,
+            entry_point: Some("analytic_pixel"),
+            compilation_options: wgpu::PipelineCompilationOptions { constants: &constants, ..Default::default() },
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Validation { what: format!("analytic pipeline {spec:?}"), message: e.to_string() });
+        }
+        pipelines.insert((spec, shade), pipeline.clone());
+        Ok(pipeline)
+    }
+
+    /// Renders every view of `scene` lit by `env` (uploaded by the tracer on this device).
+    pub fn render_frame(
+        &self,
+        scene: &FrameScene,
+        env: &GpuEnvironment,
+        params: &AnalyticParams,
+    ) -> Result<AnalyticFrame, GpuAnalyticError> {
+        params.check()?;
+        let spec = Specialisation::of(scene);
+        let mut eyes = Vec::with_capacity(scene.views.len());
+        let mut stats = RasterStats::default();
+        let mut gpu_seconds = Some(0.0);
+        for view in &scene.views {
+            let prepared = Prepared::new(scene, view, env.tables(), params)?;
+            let v = self.render_view(&prepared, env, spec, true)?;
+            stats.add(&raster_stats(&v.stats));
+            gpu_seconds = gpu_seconds.filter(|_| v.timing_source == TimingSource::Timestamps).map(|t| t + v.seconds);
+            eyes.push(v.image);
+        }
+        let lighting = u64::from(params.lighting_samples.unwrap_or(scene.samples_per_pixel).max(1));
+        Ok(AnalyticFrame { eyes, lighting_samples: stats.shaded * lighting, stats, gpu_seconds })
+    }
+
+    /// Runs the kernel over one prepared view, specialised as `spec` (which must cover the
+    /// scene), shading (`shade`) or writing coverage.
+    pub fn render_view(
+        &self,
+        prepared: &Prepared,
+        env: &GpuEnvironment,
+        spec: Specialisation,
+        shade: bool,
+    ) -> Result<GpuView, GpuAnalyticError> {
+        let device = &self.ctx.device;
+        let limits = &self.ctx.info.limits;
+        let pipeline = self.pipeline(spec, shade)?;
+        let raster = prepared.raster;
+        let (w, h) = (raster.width, raster.height);
+        let pixels = u64::from(w) * u64::from(h);
+        let per_row = u64::from(w) * (u64::from(raster.budget) + 1) * std::mem::size_of::<GpuInterval>() as u64;
+        let list_limit = LIST_BYTES.min(limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
+        if per_row > list_limit {
+            return Err(self.limit(format!(
+                "one row of {w} pixels needs {per_row} bytes of interval lists, more than the {list_limit} allowed"
+            )));
+        }
+        let band = ((list_limit / per_row).min(u64::from(h)) as u32).max(1);
+        let max_groups = limits.max_compute_workgroups_per_dimension;
+        if w.div_ceil(WORKGROUP) > max_groups || band.div_ceil(WORKGROUP) > max_groups {
+            return Err(self.limit(format!("an image {w}x{h} needs more than {max_groups} workgroups per dimension")));
+        }
+        let out_bytes = pixels * 16;
+        if out_bytes > limits.max_storage_buffer_binding_size {
+            return Err(self.limit(format!(
+                "an image {w}x{h} needs {out_bytes}-byte outputs, more than the {}-byte storage binding limit",
+                limits.max_storage_buffer_binding_size
+            )));
+        }
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
+        };
+        let storage = |label: &str, bytes: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.max(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        let frame = init("frame params", bytemuck::bytes_of(&prepared.frame), wgpu::BufferUsages::STORAGE);
+        // A binding may not be empty: a frame with no triangle still binds one (unread).
+        let placeholder = [super::GpuTriangle::default()];
+        let tris: &[super::GpuTriangle] =
+            if prepared.triangles.is_empty() { &placeholder } else { &prepared.triangles };
+        let triangles = init("triangles", bytemuck::cast_slice(tris), wgpu::BufferUsages::STORAGE);
+        let bins = init("tile bins", bytemuck::cast_slice(&prepared.bins), wgpu::BufferUsages::STORAGE);
+        let lists = storage("interval lists", per_row * u64::from(band));
+        let out_color = storage("analytic colour", out_bytes);
+        let out_stats = storage("analytic stats", out_bytes);
+        let binds: Vec<wgpu::BindGroup> = (0..h.div_ceil(band))
+            .map(|i| {
+                let first_row = i * band;
+                let p = super::RasterParams { first_row, band_rows: band.min(h - first_row), ..raster };
+                let uniform = init("raster params", bytemuck::bytes_of(&p), wgpu::BufferUsages::UNIFORM);
+                let entries = [
+                    wgpu::BindGroupEntry { binding: 0, resource: frame.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: env.buffer().as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 4, resource: uniform.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 5, resource: triangles.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 6, resource: bins.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 7, resource: lists.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 8, resource: out_color.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 9, resource: out_stats.as_entire_binding() },
+                ];
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("analytic"),
+                    layout: &self.layout,
+                    entries: &entries,
+                })
+            })
+            .collect();
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Validation { what: "analytic buffers".into(), message: e.to_string() }.into());
+        }
+        let timing = self.ctx.timer().compute_pass("analytic rasterizer", |pass| {
+            pass.set_pipeline(&pipeline);
+            for (i, bind) in binds.iter().enumerate() {
+                let rows = band.min(h - i as u32 * band);
+                pass.set_bind_group(0, bind, &[]);
+                pass.dispatch_workgroups(w.div_ceil(WORKGROUP), rows.div_ceil(WORKGROUP), 1);
+            }
+        })?;
+        let colour: Vec<[f32; 4]> = self.ctx.read_buffer_as(&out_color, ..out_bytes)?;
+        let stats: Vec<PixelStats> = self.ctx.read_buffer_as(&out_stats, ..out_bytes)?;
+        let mut image = LinearImage::new(w, h);
+        for (dst, c) in image.pixels.iter_mut().zip(&colour) {
+            *dst = [c[0], c[1], c[2]];
+        }
+        Ok(GpuView {
+            image,
+            coverage: colour.iter().map(|c| c[3]).collect(),
+            stats,
+            seconds: timing.seconds,
+            timing_source: timing.source,
+        })
+    }
+}

@@ -1,0 +1,166 @@
+//! The analytic rasterizer's GPU kernel (`shaders/analytic.wgsl`) against its f32 CPU twin
+//! (`render::analytic::gpu::cpu`), and the twin against the f64 rasterizer
+//! (`render::analytic`): coverage without shading noise pixel by pixel, shaded frames, and
+//! the interval counts. Small study frames (64 x 36, and zoomed in 4x so the sphere's
+//! triangles are about a pixel and it moves 9 px). Without a GPU adapter the GPU tests say
+//! SKIPPED (and fail under `BLURLAB_REQUIRE_GPU=1`).
+
+mod common;
+
+use glam::{DVec2, Vec3};
+use render::analytic::AnalyticParams;
+use render::analytic::frame::{RasterStats, bin, rasterize_sample};
+use render::analytic::geometry::{CameraFrame, SurfaceKind, scene_triangles};
+use render::analytic::gpu::cpu::{Kernel, render_view};
+use render::analytic::gpu::device::raster_stats;
+use render::analytic::gpu::{GpuAnalytic, Prepared};
+use render::analytic::interval::SEARCH_RANGE_OPAQUE;
+use render::analytic::resolve::resolve_opaque;
+use render::env::EnvironmentMap;
+use render::tracer::gpu::GpuTracer;
+use render::tracer::gpu::params::{EnvTables, Specialisation};
+use study::scene::FrameScene;
+
+fn study_scene(width: u32, height: u32, spp: u32, zoom: f64) -> FrameScene {
+    common::study_frame(width, height, spp, zoom)
+}
+
+const PARAMS: AnalyticParams = AnalyticParams { intervals: 8, tessellation: 64, lighting_samples: Some(2) };
+
+/// Per pixel, the f64 rasterizer's coverage of the sphere and of the floor (what the
+/// coverage kernel writes in red and green).
+fn f64_coverage(s: &FrameScene, params: &AnalyticParams) -> Vec<[f64; 2]> {
+    let cam = &s.views[0].camera;
+    let camera = CameraFrame::new(cam);
+    let binned = bin(&scene_triangles(s, &camera, params.tessellation), &camera, cam.width, cam.height);
+    let mut out = Vec::new();
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let sp = camera.sample(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
+            let here = binned.iter().filter(|b| {
+                let [x0, x1, y0, y1] = b.bounds;
+                x >= x0 && x < x1 && y >= y0 && y < y1
+            });
+            let mut stats = RasterStats::default();
+            let list =
+                rasterize_sample(here, sp, params.intervals as usize, SEARCH_RANGE_OPAQUE, &mut stats, |b, _, _| {
+                    (if b.triangle.surface == SurfaceKind::Sphere { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] }, 0)
+                });
+            let (c, _) = resolve_opaque(&list, [0.0; 3]);
+            out.push([c[0], c[1]]);
+        }
+    }
+    out
+}
+
+fn twin(s: &FrameScene, tables: &EnvTables, params: &AnalyticParams, shade: bool) -> render::analytic::gpu::cpu::View {
+    let prepared = Prepared::new(s, &s.views[0], tables, params).unwrap();
+    let k = Kernel { prepared: &prepared, env: &tables.words, spec: Specialisation::of(s), shade };
+    render_view(&k)
+}
+
+#[test]
+fn the_f32_twin_covers_like_the_f64_rasterizer() {
+    for zoom in [1.0, 4.0] {
+        let s = study_scene(64, 36, 1, zoom);
+        let tables = EnvTables::new(&EnvironmentMap::from_lighting(&s.lighting).unwrap());
+        let reference = f64_coverage(&s, &PARAMS);
+        let view = twin(&s, &tables, &PARAMS, false);
+        let (mut worst, mut off, mut moving) = (0.0f64, 0, 0);
+        for (r, p) in reference.iter().zip(&view.image.pixels) {
+            let d = (r[0] - f64::from(p[0])).abs().max((r[1] - f64::from(p[1])).abs());
+            worst = worst.max(d);
+            off += usize::from(d > 1e-4);
+            moving += usize::from(r[0] > 1e-3 && r[0] < 0.999);
+        }
+        eprintln!(
+            "zoom {zoom}: f32 twin vs f64 coverage: worst {worst:.2e}, {off} of {} pixels over 1e-4",
+            reference.len()
+        );
+        assert!(moving > 10, "the sphere's motion blur must be in view ({moving} partly covered pixels)");
+        // f32 moves interval ends by a few ulps of shutter time; a flipped compression choice
+        // may move a pixel further, but not many and not by much.
+        assert!(off * 100 <= reference.len(), "{off} pixels differ by more than 1e-4");
+        assert!(worst < 0.05, "worst pixel {worst}");
+    }
+}
+
+#[test]
+fn the_f32_twin_shades_like_the_f64_rasterizer_up_to_noise() {
+    let s = study_scene(64, 36, 64, 4.0);
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let tables = EnvTables::new(&env);
+    let params = AnalyticParams { lighting_samples: Some(64), ..PARAMS };
+    let view = twin(&s, &tables, &params, true);
+    let f64_frame = render::analytic::render_frame(&s, &env, &params).unwrap();
+    let mean = |img: &render::io::LinearImage| {
+        img.pixels.iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / img.pixels.len() as f64
+    };
+    let (a, b) = (mean(&view.image), mean(&f64_frame.eyes[0]));
+    eprintln!("mean radiance: twin {a:.5}, f64 rasterizer {b:.5}");
+    assert!((a - b).abs() < 0.02 * b, "{a} vs {b}");
+    let stats = raster_stats(&view.stats);
+    assert_eq!(stats.pixels, f64_frame.stats.pixels);
+    let rel = (stats.intervals as f64 - f64_frame.stats.intervals as f64).abs() / f64_frame.stats.intervals as f64;
+    assert!(rel < 0.01, "intervals offered: twin {} vs f64 {}", stats.intervals, f64_frame.stats.intervals);
+}
+
+fn gpu_and_env(test: &str, s: &FrameScene) -> Option<(GpuAnalytic, render::tracer::gpu::GpuEnvironment)> {
+    let ctx = gpu::test_context(test)?;
+    let tracer = GpuTracer::new(ctx.clone()).expect("the tracer kernel compiles");
+    let env = tracer.environment(&EnvironmentMap::from_lighting(&s.lighting).unwrap()).unwrap();
+    Some((GpuAnalytic::new(ctx).expect("the analytic kernel compiles"), env))
+}
+
+/// (largest difference, pixels differing by more than `tol`) over all channels.
+fn compare(a: &[[f32; 3]], b: &[[f32; 3]], tol: f32) -> (f32, usize) {
+    let mut worst = 0.0f32;
+    let mut off = 0;
+    for (p, q) in a.iter().zip(b) {
+        let d = (0..3).map(|c| (p[c] - q[c]).abs() / q[c].abs().max(1.0)).fold(0.0, f32::max);
+        worst = worst.max(d);
+        off += usize::from(d > tol);
+    }
+    (worst, off)
+}
+
+#[test]
+fn the_gpu_kernel_covers_like_its_twin() {
+    for zoom in [1.0, 4.0] {
+        let s = study_scene(64, 36, 1, zoom);
+        let Some((gpu, env)) = gpu_and_env("the_gpu_kernel_covers_like_its_twin", &s) else { return };
+        let prepared = Prepared::new(&s, &s.views[0], env.tables(), &PARAMS).unwrap();
+        let g = gpu.render_view(&prepared, &env, Specialisation::of(&s), false).unwrap();
+        let t = twin(&s, env.tables(), &PARAMS, false);
+        let (worst, off) = compare(&g.image.pixels, &t.image.pixels, 1e-4);
+        eprintln!(
+            "zoom {zoom}: GPU vs twin coverage: worst {worst:.2e}, {off} pixels over 1e-4 ({})",
+            gpu.info().short()
+        );
+        assert!(off * 100 <= t.image.pixels.len(), "{off} pixels differ");
+        let same_counts = g.stats.iter().zip(&t.stats).filter(|(a, b)| a.offered == b.offered).count();
+        assert!(same_counts * 100 >= 99 * t.stats.len(), "offered counts agree at {same_counts} pixels");
+    }
+}
+
+#[test]
+fn the_gpu_kernel_shades_like_its_twin() {
+    // A coarser sphere (16 segments) keeps each pixel's shading loops under llvmpipe's limit
+    // of 65535 loop iterations per invocation group (the path integrator loops over bounces,
+    // the environment's tables and the sampler's bits for every kept interval).
+    let params = AnalyticParams { tessellation: 16, ..PARAMS };
+    let s = study_scene(64, 36, 2, 4.0);
+    let Some((gpu, env)) = gpu_and_env("the_gpu_kernel_shades_like_its_twin", &s) else { return };
+    let prepared = Prepared::new(&s, &s.views[0], env.tables(), &params).unwrap();
+    let g = gpu.render_view(&prepared, &env, Specialisation::of(&s), true).unwrap();
+    let t = twin(&s, env.tables(), &params, true);
+    let (worst, off) = compare(&g.image.pixels, &t.image.pixels, 1e-3);
+    eprintln!("GPU vs twin radiance: worst {worst:.2e}, {off} pixels over 1e-3");
+    assert!(off * 100 <= t.image.pixels.len(), "{off} pixels differ");
+    let lit = g.image.pixels.iter().map(|p| Vec3::from_array(*p).length()).sum::<f32>();
+    assert!(lit > 0.0 && lit.is_finite());
+    // Through the frame API: the same image.
+    let frame = gpu.render_frame(&s, &env, &params).unwrap();
+    assert_eq!(frame.eyes[0].pixels, g.image.pixels);
+    assert_eq!(frame.stats, raster_stats(&g.stats));
+}
