@@ -181,9 +181,28 @@ fn add_roots(q: vec3<f32>, cuts: ptr<function, array<f32, 16>>, n: ptr<function,
     }
 }
 
+// Whether q is below zero on all of [0, 1] by more than its evaluation's rounding.
+fn negative_throughout(q: vec3<f32>) -> bool {
+    let margin = 1e-5 * (abs(q.x) + abs(q.y) + abs(q.z));
+    var m = max(q.z, q.x + q.y + q.z);
+    if q.x < 0.0 {
+        let t = -q.y / (2.0 * q.x);
+        if t > 0.0 && t < 1.0 {
+            m = max(m, eval_q(q, t));
+        }
+    }
+    return m < -margin;
+}
+
 fn visibility(ti: u32, s: vec2<f32>) -> Spans {
     var vis: Spans;
     vis.n = 0u;
+    // Most triangles a pixel meets miss its sample: one edge is negative all shutter long.
+    if triangles[ti].flags.y == 0u
+        && (negative_throughout(edge_equation(ti, 0u, s)) || negative_throughout(edge_equation(ti, 1u, s))
+            || negative_throughout(edge_equation(ti, 2u, s))) {
+        return vis;
+    }
     if triangles[ti].flags.z != 0u {
         if inside_any(ti, s, 0.5) {
             push_span(&vis, 0.0, 1.0);

@@ -124,9 +124,30 @@ fn add_roots(q: Vec3, cuts: &mut [f32; 16], n: &mut usize) {
     }
 }
 
+/// Whether `q` is below zero on all of [0, 1] by more than its evaluation's rounding (a
+/// margin of 1e-5 of its coefficients' size).
+fn negative_throughout(q: Vec3) -> bool {
+    let margin = 1e-5 * (q.x.abs() + q.y.abs() + q.z.abs());
+    let mut max = q.z.max(q.x + q.y + q.z);
+    if q.x < 0.0 {
+        let t = -q.y / (2.0 * q.x);
+        if t > 0.0 && t < 1.0 {
+            max = max.max(eval_q(q, t));
+        }
+    }
+    max < -margin
+}
+
 /// The visibility function of `tri` at `s` (edge.rs's `visibility` in f32).
 pub fn visibility(tri: &GpuTriangle, s: Vec2) -> Spans {
     let mut vis = Spans::default();
+    if tri.flags[1] == 0
+        && (negative_throughout(edge_equation(tri, 0, s))
+            || negative_throughout(edge_equation(tri, 1, s))
+            || negative_throughout(edge_equation(tri, 2, s)))
+    {
+        return vis;
+    }
     if tri.flags[2] != 0 {
         if inside_any(tri, s, 0.5) {
             push_span(&mut vis, 0.0, 1.0);
