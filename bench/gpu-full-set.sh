@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The GPU measurements in one call: the tracer's benchmark (`bench tracer --device gpu`), the
-# post-process filters' (`bench filters --device gpu`: ms per 1280x720 frame at N = 35), then
+# post-process filters' (`bench filters --device gpu`: ms per 1280x720 frame at N = 35), the
+# analytic rasterizer's (`bench analytic --gpu`: its WGSL kernel and the CPU rasterizer on
+# the same 640x360 frame at 8 intervals per pixel, 1 and 4 lighting samples), then
 # a timed slice of the full study set (all five sample levels of M3-S3-T5, mono and stereo,
 # 120 frames each, PNGs written), rendered once independently and once with --nested.
 # Prints one JSON object on stdout; progress goes to stderr. Meant for a machine with a real
@@ -58,6 +60,10 @@ log "benchmark ($bin, spp $spp)"
 log "filters (bench filters: McGuire 2012 and Guertin 2014 at 1280x720, N = 35)"
 "$bin" bench filters --device gpu --json --rounds "$((rounds * 10))" >"$out/filters.json"
 
+log "analytic rasterizer (bench analytic --gpu: 640x360, 8 intervals, 1 and 4 lighting samples)"
+"$bin" bench analytic --gpu --json --lighting-samples 1 --rounds "$rounds" >"$out/analytic-1.json"
+"$bin" bench analytic --gpu --json --lighting-samples 4 --rounds "$rounds" >"$out/analytic-4.json"
+
 calc() { awk "BEGIN { printf \"%.3f\", $1 }"; }
 
 # The slice is one of the design's 45 (material, speed, shutter) cells with all its levels
@@ -91,6 +97,8 @@ cat <<EOF | tee "$out/result.json"
   "binary": "$bin",
   "bench": $(cat "$out/bench.json"),
   "filters": $(cat "$out/filters.json"),
+  "analytic_1_lighting_sample": $(cat "$out/analytic-1.json"),
+  "analytic_4_lighting_samples": $(cat "$out/analytic-4.json"),
   "slice": {
     "sequences": "M3-S3-T5, levels A1-A5, mono and stereo, every frame, PNGs written",
     "note": "full_set_bound_minutes: 45 cells times this one, the most expensive",

@@ -86,3 +86,31 @@ fn gpu_accumulation_buffer_is_the_mean_of_the_gpu_instants() {
     assert_eq!(frame.image, render::accum::average(&instants).remove(0));
     assert_eq!(frame.camera_samples, 4 * 64 * 36);
 }
+
+#[test]
+fn the_analytic_method_on_a_gpu_renderer_runs_its_kernel() {
+    let s = moving_scene();
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let Some(renderer) = gpu_renderer("the_analytic_method_on_a_gpu_renderer_runs_its_kernel", &env) else {
+        return;
+    };
+    let spec = MethodSpec {
+        intervals: Some(8),
+        tessellation: Some(16),
+        lighting_samples: Some(2),
+        ..MethodSpec::of(Method::Analytic)
+    };
+    let frame = renderer.render(&spec, &s).unwrap();
+    let params = render::analytic::AnalyticParams::from_spec(&spec).unwrap();
+    // The kernel's own output (its f32 twin is held to it in tests/analytic_gpu.rs), not the
+    // f64 CPU rasterizer's, whose shading samples differ.
+    let ctx = gpu::test_context("the_analytic_method_on_a_gpu_renderer_runs_its_kernel").unwrap();
+    let tracer = render::tracer::gpu::GpuTracer::new(ctx.clone()).unwrap();
+    let genv = tracer.environment(&env).unwrap();
+    let kernel = render::analytic::gpu::GpuAnalytic::new(ctx).unwrap();
+    let direct = kernel.render_frame(&s, &genv, &params).unwrap();
+    assert_eq!(frame.image.pixels, direct.eyes[0].pixels);
+    let cpu = render::analytic::render_frame(&s, &env, &params).unwrap();
+    assert_ne!(frame.image.pixels, cpu.eyes[0].pixels, "the GPU renderer must not fall back to the CPU rasterizer");
+    assert_eq!(frame.camera_samples, direct.lighting_samples);
+}
