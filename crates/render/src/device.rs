@@ -246,14 +246,25 @@ impl<'env> Renderer<'env> {
 
     /// The tracer's frame of `scene`, rendered to the end.
     fn trace(&self, scene: &FrameScene) -> Result<Traced, RenderError> {
-        let frame = self.submit_tracer(scene, &[])?.finish()?.pop().expect("a submission has its full sample count");
-        // Submissions hand the eyes over composed side by side.
-        let eyes = split_eyes(&frame.image, scene);
-        Ok(Traced {
-            eyes,
-            nonfinite_samples: frame.nonfinite_samples,
-            camera_samples: frame.camera_samples,
-            gpu_seconds: frame.gpu_seconds,
+        Ok(match &self.gpu {
+            Some(g) => {
+                let f = g.tracer.render_frame(scene, &g.env).map_err(|e| RenderError::Gpu(e.to_string()))?;
+                Traced {
+                    eyes: f.eyes,
+                    nonfinite_samples: f.nonfinite_samples,
+                    camera_samples: f.camera_samples,
+                    gpu_seconds: f.gpu_seconds,
+                }
+            }
+            None => {
+                let f = crate::tracer::render_frame(scene, self.env);
+                Traced {
+                    eyes: f.eyes,
+                    nonfinite_samples: f.nonfinite_samples,
+                    camera_samples: f.camera_samples,
+                    gpu_seconds: None,
+                }
+            }
         })
     }
 
@@ -360,24 +371,4 @@ impl<'env> Renderer<'env> {
             )),
         }
     }
-}
-
-/// The eyes of a composed frame of `scene`, left to right.
-fn split_eyes(image: &LinearImage, scene: &FrameScene) -> Vec<LinearImage> {
-    let mut x0 = 0;
-    scene
-        .views
-        .iter()
-        .map(|view| {
-            let (w, h) = (view.camera.width, view.camera.height);
-            let mut eye = LinearImage::new(w, h);
-            for y in 0..h {
-                for x in 0..w {
-                    eye.set(x, y, image.get(x0 + x, y));
-                }
-            }
-            x0 += w;
-            eye
-        })
-        .collect()
 }
