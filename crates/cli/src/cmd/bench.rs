@@ -7,6 +7,17 @@ pub mod methods;
 pub mod playback;
 pub mod tracer;
 
+/// What the benchmarks of the design's M3-S3-T5 frame (tracer, filters, analytic) share.
+#[derive(clap::Args)]
+pub struct FrameBench {
+    /// Print the result as JSON (otherwise a short summary).
+    #[arg(long)]
+    json: bool,
+    /// Design file whose M3-S3-T5 benchmark frame is rendered.
+    #[arg(long, default_value = "stimuli/navarro2011.toml")]
+    design: std::path::PathBuf,
+}
+
 /// Arguments.
 #[derive(clap::Args)]
 pub struct Args {

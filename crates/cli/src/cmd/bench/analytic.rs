@@ -2,8 +2,6 @@
 //! rasterizer (`render::analytic::bench`) on the design's M3-S3-T5 benchmark frame, with the
 //! average and largest number of intervals per pixel and the machine.
 
-use std::path::PathBuf;
-
 use render::analytic::AnalyticParams;
 use render::analytic::bench::{BenchOptions, run as run_bench};
 
@@ -13,12 +11,8 @@ use crate::cmd::stimuli::load_design;
 /// Arguments.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Print the result as JSON (otherwise a short summary).
-    #[arg(long)]
-    json: bool,
-    /// Design file whose M3-S3-T5 frame is rendered.
-    #[arg(long, default_value = "stimuli/navarro2011.toml")]
-    design: PathBuf,
+    #[command(flatten)]
+    frame: super::FrameBench,
     /// Image width.
     #[arg(long, default_value_t = 640, value_parser = clap::value_parser!(u32).range(1..=16384))]
     width: u32,
@@ -45,7 +39,7 @@ pub struct Args {
 
 /// Runs the benchmark.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let design = load_design(&args.design)?;
+    let design = load_design(&args.frame.design)?;
     let params = AnalyticParams {
         intervals: args.intervals,
         tessellation: args.tessellation,
@@ -61,7 +55,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         gpu: args.gpu,
     };
     let result = run_bench(&design, &opts).map_err(|e| anyhow::anyhow!(e))?;
-    if args.json {
+    if args.frame.json {
         println!("{}", serde_json::to_string(&result)?);
     } else {
         println!(

@@ -2,8 +2,6 @@
 //! McGuire 2012 and Guertin 2014 filters at 1280x720 and N = 35 (`render::filter_timing`):
 //! GPU time from timestamp queries, the CPU twins beside it in the same run.
 
-use std::path::PathBuf;
-
 use render::filter_timing::{FilterTimingOptions, benchmark_gbuffer, run_filter_timing};
 
 use crate::cmd::BadInput;
@@ -12,12 +10,8 @@ use crate::cmd::stimuli::{DeviceArg, load_design};
 /// Arguments.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Print the result as JSON (otherwise a short summary).
-    #[arg(long)]
-    json: bool,
-    /// Design file whose M3-S3-T5 benchmark frame is the G-buffer.
-    #[arg(long, default_value = "stimuli/navarro2011.toml")]
-    design: PathBuf,
+    #[command(flatten)]
+    frame: super::FrameBench,
     /// Image width.
     #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..=16384))]
     width: u32,
@@ -41,7 +35,7 @@ pub struct Args {
 
 /// Runs the benchmark.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let design = load_design(&args.design)?;
+    let design = load_design(&args.frame.design)?;
     let adapters = match args.device {
         DeviceArg::Cpu => None,
         DeviceArg::Auto => Some(gpu::AdapterChoice::HardwareOnly),
@@ -62,7 +56,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         cpu_rounds: args.cpu_rounds,
     };
     let result = run_filter_timing(&g, filters.as_ref(), &opts)?;
-    if args.json {
+    if args.frame.json {
         println!("{}", serde_json::to_string_pretty(&result)?);
     } else {
         for name in ["mcguire", "guertin"] {

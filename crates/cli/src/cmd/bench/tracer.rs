@@ -19,12 +19,8 @@ use crate::cmd::stimuli::DeviceArg;
 /// Arguments.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Print the result as JSON (otherwise a short summary).
-    #[arg(long)]
-    json: bool,
-    /// Design file whose M3-S3-T5 frame is rendered.
-    #[arg(long, default_value = "stimuli/navarro2011.toml")]
-    design: PathBuf,
+    #[command(flatten)]
+    frame: super::FrameBench,
     /// Samples per pixel of every render.
     #[arg(long, default_value_t = 16)]
     spp: u32,
@@ -73,9 +69,10 @@ fn gpu_tracer(device: DeviceArg) -> anyhow::Result<Option<render::tracer::gpu::G
 /// Runs the benchmark.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(tracer) = gpu_tracer(args.device)? {
-        let opts = GpuBenchOptions { design: args.design, spp: args.spp, cpu_spp: args.cpu_spp, rounds: args.rounds };
+        let opts =
+            GpuBenchOptions { design: args.frame.design, spp: args.spp, cpu_spp: args.cpu_spp, rounds: args.rounds };
         let result = run_gpu_benchmark(&tracer, &opts)?;
-        if args.json {
+        if args.frame.json {
             println!("{}", serde_json::to_string_pretty(&result)?);
         } else {
             let rate = |v: &serde_json::Value| v["camera_samples_per_second"].as_f64().unwrap_or(f64::NAN);
@@ -105,7 +102,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Ok(());
     }
     let opts = BenchOptions {
-        design: args.design,
+        design: args.frame.design,
         spp: args.spp,
         peer: args.peer,
         python: args.python,
@@ -115,7 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         rounds: args.rounds,
     };
     let result = run_benchmark(&opts)?;
-    if args.json {
+    if args.frame.json {
         println!("{}", serde_json::to_string_pretty(&result)?);
     } else {
         println!(
