@@ -235,11 +235,6 @@ pub enum ManifestError {
     },
 }
 
-fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, ManifestError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ManifestError::Io { path: path.to_owned(), source })?;
-    parse_json(path, &text)
-}
-
 fn parse_json<T: serde::de::DeserializeOwned>(path: &Path, text: &str) -> Result<T, ManifestError> {
     serde_json::from_str(text).map_err(|e| ManifestError::Parse {
         path: path.to_owned(),
@@ -249,44 +244,68 @@ fn parse_json<T: serde::de::DeserializeOwned>(path: &Path, text: &str) -> Result
     })
 }
 
+/// A JSON file tagged with a `format` field this version reads.
+trait Tagged: serde::de::DeserializeOwned {
+    /// The tag expected.
+    const FORMAT: &'static str;
+    /// The tag found.
+    fn format(&self) -> &str;
+
+    /// Parses text read from `path` and checks its tag.
+    fn parse_checked(path: &Path, text: &str) -> Result<Self, ManifestError> {
+        let m: Self = parse_json(path, text)?;
+        if m.format() != Self::FORMAT {
+            return Err(ManifestError::Format {
+                path: path.to_owned(),
+                found: m.format().to_owned(),
+                expected: Self::FORMAT,
+            });
+        }
+        Ok(m)
+    }
+
+    /// Reads `path` and checks its tag.
+    fn read_checked(path: &Path) -> Result<Self, ManifestError> {
+        let text =
+            std::fs::read_to_string(path).map_err(|source| ManifestError::Io { path: path.to_owned(), source })?;
+        Self::parse_checked(path, &text)
+    }
+}
+
+impl Tagged for SequenceManifest {
+    const FORMAT: &'static str = SEQUENCE_FORMAT;
+    fn format(&self) -> &str {
+        &self.format
+    }
+}
+
+impl Tagged for SetIndex {
+    const FORMAT: &'static str = INDEX_FORMAT;
+    fn format(&self) -> &str {
+        &self.format
+    }
+}
+
 impl SequenceManifest {
     /// Reads and checks a sequence manifest.
     pub fn read(path: &Path) -> Result<Self, ManifestError> {
-        let m: Self = read_json(path)?;
-        m.checked(path)
+        Self::read_checked(path)
     }
 
     /// Parses and checks manifest text read from `path`.
     pub fn parse(path: &Path, text: &str) -> Result<Self, ManifestError> {
-        parse_json::<Self>(path, text)?.checked(path)
-    }
-
-    fn checked(self, path: &Path) -> Result<Self, ManifestError> {
-        let m = self;
-        if m.format != SEQUENCE_FORMAT {
-            return Err(ManifestError::Format { path: path.to_owned(), found: m.format, expected: SEQUENCE_FORMAT });
-        }
-        Ok(m)
+        Self::parse_checked(path, text)
     }
 }
 
 impl SetIndex {
     /// Reads and checks a set index.
     pub fn read(path: &Path) -> Result<Self, ManifestError> {
-        let m: Self = read_json(path)?;
-        m.checked(path)
+        Self::read_checked(path)
     }
 
     /// Parses and checks index text read from `path`.
     pub fn parse(path: &Path, text: &str) -> Result<Self, ManifestError> {
-        parse_json::<Self>(path, text)?.checked(path)
-    }
-
-    fn checked(self, path: &Path) -> Result<Self, ManifestError> {
-        let m = self;
-        if m.format != INDEX_FORMAT {
-            return Err(ManifestError::Format { path: path.to_owned(), found: m.format, expected: INDEX_FORMAT });
-        }
-        Ok(m)
+        Self::parse_checked(path, text)
     }
 }
