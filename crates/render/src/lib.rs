@@ -6,7 +6,9 @@
 //! (Gribel et al. 2010); `gbuffer` the G-buffer (radiance at the shutter's
 //! centre, depth, analytic velocity) that the post-process motion blur `filters` read;
 //! `io` turns linear radiance into PNG/EXR files; `set` renders whole stimulus sets with
-//! manifests and resume; `numeric` holds the robust numerics every method shares.
+//! manifests and resume; `shard` cuts a set into units for N shards (Slurm job arrays) and
+//! merges the shards back into one verified set; `numeric` holds the robust numerics every
+//! method shares.
 
 pub mod accum;
 pub mod analytic;
@@ -20,6 +22,7 @@ pub mod method;
 pub mod numeric;
 pub mod quality;
 pub mod set;
+pub mod shard;
 pub mod tracer;
 
 pub use device::{DeviceChoice, Renderer};

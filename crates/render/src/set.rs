@@ -78,6 +78,15 @@ pub enum SetError {
         /// What differs.
         message: String,
     },
+    /// Shards that do not add up to their set: every unit missing, damaged, duplicated or
+    /// not in the plan, one per line.
+    #[error("{summary}{}", lines.iter().map(|l| format!("\n  {l}")).collect::<String>())]
+    Incomplete {
+        /// What was checked.
+        summary: String,
+        /// One line per problem.
+        lines: Vec<String>,
+    },
 }
 
 impl SetError {
@@ -91,6 +100,7 @@ impl SetError {
                 | SetError::Method(RenderError::NotAvailable(_) | RenderError::NotNested(_))
                 | SetError::Device(DeviceError::NoGpu(_))
                 | SetError::Mismatch { .. }
+                | SetError::Incomplete { .. }
         )
     }
 }
@@ -192,19 +202,19 @@ pub fn process_cpu_seconds() -> Option<f64> {
     Some((utime + stime) / 100.0)
 }
 
-fn io_err<'a>(path: &'a Path, action: &'static str) -> impl FnOnce(io::Error) -> SetError + 'a {
+pub(crate) fn io_err<'a>(path: &'a Path, action: &'static str) -> impl FnOnce(io::Error) -> SetError + 'a {
     move |source| SetError::Io { path: path.to_owned(), action, source }
 }
 
 /// Camera samples of one frame of `id`: the unit of the overall progress bar, since render
 /// time grows linearly with it.
-fn frame_cost(preset: &Preset, id: &StimulusId) -> u64 {
+pub(crate) fn frame_cost(preset: &Preset, id: &StimulusId) -> u64 {
     let eyes = study::Eye::of_view(id.view).len() as u64;
     let spp = u64::from(preset.samples_per_pixel[usize::from(id.samples - 1)]);
     u64::from(preset.width) * u64::from(preset.height) * eyes * spp
 }
 
-struct Progress {
+pub(crate) struct Progress {
     mode: ProgressMode,
     multi: Option<MultiProgress>,
     overall: Option<ProgressBar>,
@@ -212,7 +222,7 @@ struct Progress {
 }
 
 impl Progress {
-    fn new(mode: ProgressMode, total_cost: u64, total_sequences: usize) -> Self {
+    pub(crate) fn new(mode: ProgressMode, total_cost: u64, total_sequences: usize) -> Self {
         let mode = match mode {
             ProgressMode::Auto if io::stderr().is_terminal() => ProgressMode::Auto,
             ProgressMode::Auto => ProgressMode::Lines,
@@ -235,7 +245,7 @@ impl Progress {
         Progress { mode, multi: Some(multi), overall: Some(overall), total_sequences }
     }
 
-    fn sequence_bar(&self, id: &StimulusId, frames: u32) -> Option<ProgressBar> {
+    pub(crate) fn sequence_bar(&self, id: &StimulusId, frames: u32) -> Option<ProgressBar> {
         let multi = self.multi.as_ref()?;
         let bar = multi.add(ProgressBar::new(u64::from(frames)));
         bar.set_style(
@@ -251,13 +261,13 @@ impl Progress {
         Some(bar)
     }
 
-    fn advance(&self, cost: u64) {
+    pub(crate) fn advance(&self, cost: u64) {
         if let Some(o) = &self.overall {
             o.inc(cost);
         }
     }
 
-    fn finished(&self, done: usize, id: &StimulusId, what: &str, seconds: f64) {
+    pub(crate) fn finished(&self, done: usize, id: &dyn std::fmt::Display, what: &str, seconds: f64) {
         let line = format!("[{done}/{}] {id}: {what} ({seconds:.1} s)", self.total_sequences);
         match self.mode {
             ProgressMode::Quiet => {}
@@ -273,7 +283,7 @@ impl Progress {
         }
     }
 
-    fn finish(&self) {
+    pub(crate) fn finish(&self) {
         if let Some(o) = &self.overall {
             o.finish_and_clear();
         }
@@ -382,7 +392,7 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
                 remove_temporaries(&seq);
             }
             let bar = progress.sequence_bar(&todo[todo.len() - 1], preset.frames);
-            let manifests = render_stream(request, &renderer, &todo, writer, |cost| {
+            let manifests = render_stream(request, &renderer, &todo, 0..preset.frames, writer, |cost| {
                 progress.advance(cost);
                 if let Some(b) = &bar {
                     b.inc(1);
@@ -416,7 +426,7 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
 
 /// The sequences rendered together: each on its own, or (nested sampling) the sample levels
 /// of one material, speed, shutter and view, in the order they were asked for.
-fn streams(ids: &[StimulusId], sampling: Sampling) -> Vec<Vec<StimulusId>> {
+pub(crate) fn streams(ids: &[StimulusId], sampling: Sampling) -> Vec<Vec<StimulusId>> {
     let mut groups: Vec<Vec<StimulusId>> = Vec::new();
     for id in ids {
         let same_stream = |g: &Vec<StimulusId>| StimulusId { samples: id.samples, ..g[0] } == *id;
@@ -472,14 +482,16 @@ fn write_frame(
     })
 }
 
-/// Renders the sequences `members` (one, or the sample levels of one nested stream) frame
-/// by frame and writes their frames; returns their manifests, in order. On a GPU the next
+/// Renders frames `frames` of the sequences `members` (one, or the sample levels of one
+/// nested stream) frame by frame and writes them; returns their manifests (listing those
+/// frames), in order. On a GPU the next
 /// frames are submitted before a frame is read back, and frames are encoded and written on
 /// the thread pool, so the GPU does not wait for the CPU.
-fn render_stream(
+pub(crate) fn render_stream(
     request: &SetRequest<'_>,
     renderer: &Renderer<'_>,
     members: &[StimulusId],
+    frames: std::ops::Range<u32>,
     writer: &dyn FileWriter,
     mut on_frame: impl FnMut(u64),
 ) -> Result<Vec<SequenceManifest>, SetError> {
@@ -565,7 +577,7 @@ fn render_stream(
                 on_frame(cost);
                 Ok(())
             };
-        for frame in 0..preset.frames {
+        for frame in frames.clone() {
             let mut scene = design.frame_scene_with(preset, &stream_id, frame)?;
             scene.samples_per_pixel = stream_spp;
             seeds_of_frame.push(scene.views.iter().map(|v| v.seed).collect());
@@ -583,6 +595,7 @@ fn render_stream(
         }
         Ok(())
     })?;
+    let first_frame = frames.start;
     let mut frames: Vec<Vec<FrameRecord>> = members.iter().map(|_| Vec::new()).collect();
     for w in written.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner) {
         let (m, record) = w?;
@@ -594,7 +607,7 @@ fn render_stream(
         .map(|(id, mut records)| {
             records.sort_by_key(|r| r.index);
             for r in &mut records {
-                r.seeds = seeds_of_frame[r.index as usize].clone();
+                r.seeds = seeds_of_frame[(r.index - first_frame) as usize].clone();
             }
             Ok(SequenceManifest {
                 format: SEQUENCE_FORMAT.to_owned(),
@@ -619,14 +632,14 @@ fn render_stream(
         .collect()
 }
 
-fn manifest_bytes(manifest: &SequenceManifest) -> Vec<u8> {
+pub(crate) fn manifest_bytes(manifest: &SequenceManifest) -> Vec<u8> {
     let mut bytes = serde_json::to_vec_pretty(manifest).unwrap_or_default();
     bytes.push(b'\n');
     bytes
 }
 
 /// Removes temporary files a killed write left behind (`.NAME.tmp-PID`).
-fn remove_temporaries(folder: &Path) {
+pub(crate) fn remove_temporaries(folder: &Path) {
     if let Ok(entries) = std::fs::read_dir(folder) {
         for entry in entries.flatten() {
             let name = entry.file_name();
@@ -654,19 +667,24 @@ struct Found {
 /// `index.json` is rebuilt from those of this design, preset and sampling mode whose files
 /// verify, so several processes (or cluster nodes, without working locks) rendering into one
 /// folder all keep every completed sequence.
-struct SetFolder<'a> {
+pub(crate) struct SetFolder<'a> {
     root: PathBuf,
     design: &'a Design,
     preset: &'a Preset,
     sampling: Sampling,
     /// Sequences (id, manifest hash) whose listed files verified, or that an index listed.
-    verified: std::collections::HashSet<(StimulusId, String)>,
+    pub(crate) verified: std::collections::HashSet<(StimulusId, String)>,
 }
 
 impl<'a> SetFolder<'a> {
     /// Checks that the folder holds nothing of another design, preset or sampling mode, and
     /// keeps a copy of the design file in it.
-    fn open(root: &Path, design: &'a Design, preset: &'a Preset, sampling: Sampling) -> Result<Self, SetError> {
+    pub(crate) fn open(
+        root: &Path,
+        design: &'a Design,
+        preset: &'a Preset,
+        sampling: Sampling,
+    ) -> Result<Self, SetError> {
         let mut folder =
             SetFolder { root: root.to_owned(), design, preset, sampling, verified: std::collections::HashSet::new() };
         let index_path = root.join("index.json");
@@ -749,7 +767,7 @@ impl<'a> SetFolder<'a> {
     }
 
     /// The index of the complete sequences in the folder now.
-    fn rebuild(&mut self) -> Result<SetIndex, SetError> {
+    pub(crate) fn rebuild(&mut self) -> Result<SetIndex, SetError> {
         let mut sequences = Vec::new();
         for f in self.scan()? {
             let m = &f.manifest;
@@ -786,7 +804,7 @@ impl<'a> SetFolder<'a> {
     /// Rewrites `index.json` from the folder until a fresh rebuild equals what is on disk: the
     /// last process to write the index checks it after its write, so a concurrent writer's
     /// older view never has the last word.
-    fn publish(&mut self, writer: &dyn FileWriter) -> Result<(), SetError> {
+    pub(crate) fn publish(&mut self, writer: &dyn FileWriter) -> Result<(), SetError> {
         let path = self.root.join("index.json");
         for _ in 0..100 {
             let index = self.rebuild()?;
@@ -901,34 +919,68 @@ pub fn verify_sequence(
     let manifest_path = folder.join("manifest.json");
     let bytes = std::fs::read(&manifest_path).ok()?;
     let m = SequenceManifest::read(&manifest_path).ok()?;
-    let spp = preset.samples_per_pixel[usize::from(id.samples - 1)];
-    let eyes = study::Eye::of_view(id.view).len() as u32;
-    let matches = m.id == *id
-        && m.method == method
-        && m.sampling == sampling
-        && m.preset == preset.name
-        && m.design_sha256 == design.sha256
-        && m.samples_per_pixel == spp
-        && m.width == preset.width * eyes
-        && m.height == preset.height
-        && m.frames.len() == preset.frames as usize
-        && m.frames.iter().enumerate().all(|(i, f)| f.index as usize == i);
-    if !matches {
-        return None;
-    }
-    for f in &m.frames {
-        if sha256_file(&folder.join(&f.png)).ok()? != f.png_sha256 {
-            return None;
+    let expected = Expected { design, preset, id, method, exr, sampling, frames: 0..preset.frames };
+    expected.why_not(folder, &m).is_none().then(|| sha256_hex(&bytes))
+}
+
+/// What a manifest (of a whole sequence, or of a shard's unit of frames) must say and hold.
+pub(crate) struct Expected<'a> {
+    pub(crate) design: &'a Design,
+    pub(crate) preset: &'a Preset,
+    pub(crate) id: &'a StimulusId,
+    pub(crate) method: Method,
+    pub(crate) exr: bool,
+    pub(crate) sampling: Sampling,
+    pub(crate) frames: std::ops::Range<u32>,
+}
+
+impl Expected<'_> {
+    /// Why `m`, in `folder`, is not what is expected (`None`: it is, and its files verify).
+    pub(crate) fn why_not(&self, folder: &Path, m: &SequenceManifest) -> Option<String> {
+        let (design, preset, id) = (self.design, self.preset, self.id);
+        let spp = preset.samples_per_pixel.get(usize::from(id.samples).wrapping_sub(1)).copied();
+        let eyes = study::Eye::of_view(id.view).len() as u32;
+        let checks: [(bool, String); 9] = [
+            (m.id == *id, format!("id {} (expected {id})", m.id)),
+            (m.method == self.method, format!("method `{}` (expected `{}`)", m.method.name(), self.method.name())),
+            (m.sampling == self.sampling, format!("sampling {:?} (expected {:?})", m.sampling, self.sampling)),
+            (m.preset == preset.name, format!("preset `{}` (expected `{}`)", m.preset, preset.name)),
+            (
+                m.design_sha256 == design.sha256,
+                format!("design_sha256 {} (expected {})", m.design_sha256, design.sha256),
+            ),
+            (Some(m.samples_per_pixel) == spp, format!("samples_per_pixel {}", m.samples_per_pixel)),
+            (m.width == preset.width * eyes, format!("width {} (expected {})", m.width, preset.width * eyes)),
+            (m.height == preset.height, format!("height {} (expected {})", m.height, preset.height)),
+            (
+                m.frames.len() == self.frames.len()
+                    && m.frames.iter().zip(self.frames.clone()).all(|(f, i)| f.index == i),
+                format!(
+                    "frames {:?} (expected {}..={})",
+                    m.frames.iter().map(|f| f.index).collect::<Vec<_>>(),
+                    self.frames.start,
+                    self.frames.end.saturating_sub(1)
+                ),
+            ),
+        ];
+        if let Some((_, what)) = checks.iter().find(|(ok, _)| !ok) {
+            return Some(format!("records {what}"));
         }
-        let exr_ok = match (&f.exr, &f.exr_sha256) {
-            (Some(name), Some(hash)) => sha256_file(&folder.join(name)).ok()? == *hash,
-            _ => !exr,
-        };
-        if !exr_ok {
-            return None;
+        for f in &m.frames {
+            if sha256_file(&folder.join(&f.png)).ok().as_deref() != Some(f.png_sha256.as_str()) {
+                return Some(format!("{} is missing or does not hash as recorded", f.png));
+            }
+            match (&f.exr, &f.exr_sha256) {
+                (Some(name), Some(hash)) if sha256_file(&folder.join(name)).ok().as_ref() != Some(hash) => {
+                    return Some(format!("{name} is missing or does not hash as recorded"));
+                }
+                (Some(_), Some(_)) => {}
+                _ if self.exr => return Some(format!("frame {} has no EXR file (expected with --exr)", f.index)),
+                _ => {}
+            }
         }
+        None
     }
-    Some(sha256_hex(&bytes))
 }
 
 #[cfg(test)]

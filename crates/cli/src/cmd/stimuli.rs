@@ -1,11 +1,13 @@
-//! `blurlab stimuli`: render a design's stimulus set, list its ids, describe a frame's scene,
-//! write the built-in environment map.
+//! `blurlab stimuli`: render a design's stimulus set (whole, or one shard of it), merge
+//! shards into one verified set, list its ids, describe a frame's scene, write the built-in
+//! environment map.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use clap::{Subcommand, ValueEnum};
 use render::set::{ProgressMode, SetError, SetRequest, render_set};
+use render::shard::{Plan, ShardSpec, merge as merge_shards, render_shard};
 use study::design::{Design, DesignError, Preset, Views};
 use study::ids::{Factor, StimulusId};
 use study::manifest::Sampling;
@@ -25,6 +27,10 @@ pub struct Args {
 enum Command {
     /// Render every selected sequence of a design into a set folder.
     Render(RenderArgs),
+    /// Merge shard folders into one set, verifying that every unit of their plan is present
+    /// exactly once with files that hash as recorded; with no shard folders, check (and
+    /// complete) a shared set folder in place.
+    Merge(MergeArgs),
     /// Print the ids of the selected sequences, one per line.
     List(ListArgs),
     /// Print the scene of one frame of one stimulus.
@@ -114,9 +120,15 @@ struct RenderArgs {
     /// renders every level independently). The manifests and index record the mode.
     #[arg(long)]
     nested: bool,
-    /// Render only shard K of N (1-based, `K/N`): every N-th selected sequence from the K-th.
+    /// Render only shard K of N (`K/N`, K from 0 to N-1 as Slurm's SLURM_ARRAY_TASK_ID):
+    /// the units (sequence, frame range) the cost-balanced plan gives it. Every shard of a
+    /// set takes the same design, preset, selection, --exr and --nested.
     #[arg(long)]
     shard: Option<String>,
+    /// With --shard: print the plan (every shard's units and estimated cost) and render
+    /// nothing.
+    #[arg(long, requires = "shard")]
+    plan: bool,
     /// Progress on stderr: bars on a terminal, else one line per sequence.
     #[arg(long, value_enum, default_value_t = ProgressArg::Auto)]
     progress: ProgressArg,
@@ -127,6 +139,17 @@ enum ProgressArg {
     Auto,
     Lines,
     Quiet,
+}
+
+#[derive(clap::Args)]
+struct MergeArgs {
+    /// The merged set folder (new, or a set merged before); alone, the shared folder to check.
+    out: PathBuf,
+    /// Shard folders (each rendered with --shard into its own folder).
+    dirs: Vec<PathBuf>,
+    /// Progress on stderr: bars on a terminal, else one line per sequence.
+    #[arg(long, value_enum, default_value_t = ProgressArg::Auto)]
+    progress: ProgressArg,
 }
 
 #[derive(clap::Args)]
@@ -200,6 +223,7 @@ struct EnvArgs {
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.command {
         Command::Render(a) => render(a),
+        Command::Merge(a) => merge(a),
         Command::List(a) => list(a),
         Command::Describe(a) => describe(a),
         Command::Env(a) => env(a),
@@ -244,24 +268,14 @@ fn selected(design: &Design, select: &Selecting) -> anyhow::Result<Vec<StimulusI
     Ok(ids)
 }
 
-fn parse_shard(text: &str) -> anyhow::Result<(usize, usize)> {
-    let bad = || BadInput(format!("--shard `{text}`: expected K/N with 1 <= K <= N"));
-    let (k, n) = text.split_once('/').ok_or_else(bad)?;
-    let (k, n): (usize, usize) = (k.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
-    if k == 0 || n == 0 || k > n {
-        return Err(bad().into());
-    }
-    Ok((k, n))
-}
-
 fn render(a: RenderArgs) -> anyhow::Result<()> {
     let design = load_design(&a.select.design)?;
     let preset = design.preset(&a.select.preset).map_err(design_error)?;
-    let mut ids = selected(&design, &a.select)?;
-    if let Some(shard) = &a.shard {
-        let (k, n) = parse_shard(shard)?;
-        ids = ids.into_iter().enumerate().filter(|(i, _)| i % n == k - 1).map(|(_, id)| id).collect();
-    }
+    let ids = selected(&design, &a.select)?;
+    let shard = match &a.shard {
+        Some(text) => Some(text.parse::<ShardSpec>().map_err(|e| BadInput(format!("--shard {e}")))?),
+        None => None,
+    };
     let request = SetRequest {
         design: &design,
         preset,
@@ -270,14 +284,31 @@ fn render(a: RenderArgs) -> anyhow::Result<()> {
         out: a.out.clone(),
         resume: a.resume,
         exr: a.exr,
-        progress: match a.progress {
-            ProgressArg::Auto => ProgressMode::Auto,
-            ProgressArg::Lines => ProgressMode::Lines,
-            ProgressArg::Quiet => ProgressMode::Quiet,
-        },
+        progress: a.progress.into(),
         device: a.device.into(),
         sampling: if a.nested { Sampling::Nested } else { Sampling::Independent },
     };
+    if let Some(shard) = shard {
+        if a.plan {
+            let plan = Plan::compute(&request, shard.count).map_err(set_error)?;
+            print!("{}", plan.describe());
+            return Ok(());
+        }
+        let r = render_shard(&request, shard).map_err(set_error)?;
+        eprintln!(
+            "{}: shard {shard}: {} of its {} units rendered on {}, {} verified and skipped, {} left to other processes, {} sequences completed, {} non-finite samples discarded, {:.1} s",
+            a.out.display(),
+            r.rendered.len(),
+            r.units,
+            r.device,
+            r.skipped.len(),
+            r.left_to_others.len(),
+            r.completed.len(),
+            r.nonfinite_samples,
+            r.wall_seconds
+        );
+        return Ok(());
+    }
     let report = render_set(&request).map_err(set_error)?;
     eprintln!(
         "{}: {} sequences rendered on {}, {} verified and skipped, {} non-finite samples discarded, {:.1} s",
@@ -289,6 +320,30 @@ fn render(a: RenderArgs) -> anyhow::Result<()> {
         report.wall_seconds
     );
     Ok(())
+}
+
+fn merge(a: MergeArgs) -> anyhow::Result<()> {
+    let r = merge_shards(&a.out, &a.dirs, a.progress.into()).map_err(set_error)?;
+    eprintln!(
+        "{}: {} units of {} shards verified, {} sequences in the set, {} frame files copied, {:.1} s",
+        a.out.display(),
+        r.units,
+        r.shards,
+        r.sequences,
+        r.copied_files,
+        r.wall_seconds
+    );
+    Ok(())
+}
+
+impl From<ProgressArg> for ProgressMode {
+    fn from(p: ProgressArg) -> Self {
+        match p {
+            ProgressArg::Auto => ProgressMode::Auto,
+            ProgressArg::Lines => ProgressMode::Lines,
+            ProgressArg::Quiet => ProgressMode::Quiet,
+        }
+    }
 }
 
 /// Turns a set error into an `anyhow` error with the right exit code.

@@ -1,0 +1,1114 @@
+//! Sharded set rendering (`stimuli render --shard K/N`, a Slurm job array's task K) and the
+//! merge that proves the shards add up to the set (`stimuli merge`).
+//!
+//! **Plan.** The work of a set is cut into *units*: a sequence (or, with nested sampling,
+//! the sample levels of one stream) and a range of its frames. A unit's cost is its
+//! estimated camera samples (pixels x eyes x samples per pixel, scaled by the method's
+//! work per sample, [`samples_cost`]) times its frames. Sequences costing more than a
+//! quarter of a shard's share are cut into frame ranges, then units go, most expensive
+//! first, to the shard with the least cost so far (ties: the lower shard), so shards
+//! finish at about the same time. The plan depends only on the design, preset, selection,
+//! sampling mode, `--exr` and N, so every task computes the same one; each writes it as
+//! `plan.json` into its set folder and refuses a folder holding another plan (another N,
+//! design, preset, selection or software version).
+//!
+//! **Units on disk.** A unit's frames are written into the sequence folder as in an
+//! unsharded set, then its record `SEQ/units/frames-FIRST-LAST.json` (`blurlab-unit/1`:
+//! the sequence manifest of those frames, with the shard that rendered them). A record
+//! exists only for a unit whose frames are all on disk; `--resume` skips a unit whose record
+//! and files verify. Where every unit of a sequence is in one folder (a shared folder, or a
+//! shard that owns the whole sequence), the shard writes the sequence's `manifest.json`,
+//! assembled only from the records (so two shards finishing at once write the same bytes)
+//! and publishes the index (`set`'s rules).
+//!
+//! **Merge.** [`merge`] reads the plan of every shard folder, refuses folders of different
+//! plans by name, finds every unit of the plan exactly once with files that verify (else
+//! lists precisely what is missing, damaged, duplicated or not in the plan, and writes
+//! nothing), then copies the frames into the output folder, writes the manifests and the
+//! index. Given only the output folder, it checks a shared folder in place.
+//!
+//! Seeds depend only on (design seed, stimulus, eye, frame), so a unit's frames are the
+//! bytes an unsharded render writes (on the CPU; on a GPU, for the same adapter and driver).
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::io;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde::{Deserialize, Serialize};
+use study::design::{Design, Preset};
+use study::fsio::sha256_hex;
+use study::manifest::{Sampling, SequenceManifest};
+use study::method::MethodSpec;
+use study::{Method, SOFTWARE_VERSION, StimulusId};
+
+use crate::device::Renderer;
+use crate::env::EnvironmentMap;
+use crate::set::{
+    AtomicWriter, Expected, FileWriter, Progress, ProgressMode, SetError, SetFolder, SetRequest, io_err,
+    manifest_bytes, remove_temporaries, render_stream, streams,
+};
+
+/// Format tag of `plan.json`.
+pub const PLAN_FORMAT: &str = "blurlab-plan/1";
+/// Format tag of a unit record.
+pub const UNIT_FORMAT: &str = "blurlab-unit/1";
+/// The plan's file name in a set folder.
+pub const PLAN_FILE: &str = "plan.json";
+/// The folder, inside a sequence folder, of its unit records.
+pub const UNITS_DIR: &str = "units";
+/// Units a shard's share is cut into at least, where sequences are larger than that.
+const UNITS_PER_SHARD: u64 = 4;
+
+/// Shard K of N: `K/N`, K counted from 0 (as Slurm's `SLURM_ARRAY_TASK_ID` of
+/// `--array=0-(N-1)`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ShardSpec {
+    /// K, from 0.
+    pub index: u32,
+    /// N, at least 1.
+    pub count: u32,
+}
+
+impl fmt::Display for ShardSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+impl FromStr for ShardSpec {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        let shape = || format!("`{text}`: expected K/N, shard K (counted from 0) of N, e.g. 0/4");
+        let (k, n) = text.split_once('/').ok_or_else(shape)?;
+        let number = |s: &str, what: &str| {
+            s.trim().parse::<u32>().map_err(|_| format!("`{text}`: {what} `{}` is not a whole number", s.trim()))
+        };
+        let (index, count) = (number(k, "K")?, number(n, "N")?);
+        if count == 0 {
+            return Err(format!("`{text}`: N = 0; a set is rendered in at least 1 shard"));
+        }
+        if index >= count {
+            return Err(format!(
+                "`{text}`: K = {index} is not below N = {count}; shards count from 0 (like SLURM_ARRAY_TASK_ID with --array=0-{}), so K is 0 to {}",
+                count - 1,
+                count - 1
+            ));
+        }
+        Ok(ShardSpec { index, count })
+    }
+}
+
+/// One unit of work: frames `first..end` of a sequence (or of the sample levels of one
+/// nested stream), and the shard that renders it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Unit {
+    /// The sequences rendered together: one, or a nested stream's levels.
+    pub ids: Vec<StimulusId>,
+    /// First frame.
+    pub first: u32,
+    /// One past the last frame.
+    pub end: u32,
+    /// Estimated cost (camera samples, weighted by the method).
+    pub cost: u64,
+    /// The shard (K, from 0) that renders it.
+    pub shard: u32,
+}
+
+impl Unit {
+    /// The frames.
+    pub fn frames(&self) -> Range<u32> {
+        self.first..self.end
+    }
+
+    /// The record's file name inside `SEQ/units/`.
+    pub fn record_name(&self) -> String {
+        format!("frames-{:04}-{:04}.json", self.first, self.end.saturating_sub(1))
+    }
+
+    /// The record's path for member `id` under `set`.
+    pub fn record_path(&self, set: &Path, id: &StimulusId) -> PathBuf {
+        set.join(id.to_string()).join(UNITS_DIR).join(self.record_name())
+    }
+}
+
+impl fmt::Display for Unit {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let ids: Vec<String> = self.ids.iter().map(ToString::to_string).collect();
+        write!(f, "{} frames {}-{}", ids.join("+"), self.first, self.end.saturating_sub(1))
+    }
+}
+
+/// The assignment of a set's units to N shards (`plan.json`, `blurlab-plan/1`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    /// Always [`PLAN_FORMAT`].
+    pub format: String,
+    /// Design name.
+    pub design: String,
+    /// SHA-256 of the design file.
+    pub design_sha256: String,
+    /// Preset name.
+    pub preset: String,
+    /// Sampling mode.
+    pub sampling: Sampling,
+    /// Whether EXR frames are written.
+    pub exr: bool,
+    /// blurlab version that made the plan (and renders the units).
+    pub software_version: String,
+    /// N.
+    pub shards: u32,
+    /// The selected sequences, in order.
+    pub ids: Vec<StimulusId>,
+    /// Every unit, in order of the sequences and frames.
+    pub units: Vec<Unit>,
+}
+
+/// Camera samples per pixel a method's frame costs about, relative to the tracer's: the
+/// accumulation buffer traces K instants of its samples each; the filters trace the
+/// centre instant and gather taps (about 8 taps per traced sample); the analytic
+/// rasterizer shades its lighting samples per pixel.
+pub fn samples_cost(method: &MethodSpec, spp: u32) -> u64 {
+    let spp = u64::from(spp.max(1));
+    match method.kind {
+        Method::Tracer => spp,
+        Method::Accum => {
+            let k = u64::from(method.instants.unwrap_or(8).max(1));
+            k * method.samples_per_instant.map_or(spp.div_ceil(k), u64::from)
+        }
+        Method::Mcguire | Method::Guertin => spp + u64::from(method.taps.unwrap_or(32)).div_ceil(8),
+        Method::Analytic => method.lighting_samples.map_or(spp, u64::from).max(1),
+    }
+}
+
+impl Plan {
+    /// The plan of `request`'s sequences over `shards` shards.
+    pub fn compute(request: &SetRequest<'_>, shards: u32) -> Result<Plan, SetError> {
+        let preset = &request.preset;
+        let mut pieces = Vec::new();
+        for members in streams(&request.ids, request.sampling) {
+            let spp = members
+                .iter()
+                .map(|id| preset.samples_per_pixel.get(usize::from(id.samples).wrapping_sub(1)).copied().unwrap_or(1))
+                .max()
+                .unwrap_or(1);
+            let eyes = study::Eye::of_view(members[0].view).len() as u64;
+            let pixels = u64::from(preset.width) * u64::from(preset.height) * eyes;
+            let per_frame = pixels * samples_cost(&request.method_of(&members[0])?, spp);
+            pieces.push((members, per_frame));
+        }
+        let total: u64 = pieces.iter().map(|(_, c)| c * u64::from(preset.frames)).sum();
+        let target = (total / (u64::from(shards.max(1)) * UNITS_PER_SHARD)).max(1);
+        let mut units = Vec::new();
+        for (members, per_frame) in pieces {
+            let frames = preset.frames;
+            let chunks = (per_frame * u64::from(frames)).div_ceil(target).clamp(1, u64::from(frames.max(1))) as u32;
+            let (base, extra) = (frames / chunks, frames % chunks);
+            let mut first = 0;
+            for c in 0..chunks {
+                let len = base + u32::from(c < extra);
+                units.push(Unit {
+                    ids: members.clone(),
+                    first,
+                    end: first + len,
+                    cost: per_frame * u64::from(len),
+                    shard: 0,
+                });
+                first += len;
+            }
+        }
+        // Longest processing time first, onto the least loaded shard.
+        let mut order: Vec<usize> = (0..units.len()).collect();
+        order.sort_by(|&a, &b| units[b].cost.cmp(&units[a].cost).then(a.cmp(&b)));
+        let mut loads = vec![0u64; shards.max(1) as usize];
+        for i in order {
+            let k = (0..loads.len()).min_by_key(|&k| (loads[k], k)).unwrap_or(0);
+            loads[k] += units[i].cost;
+            units[i].shard = k as u32;
+        }
+        Ok(Plan {
+            format: PLAN_FORMAT.to_owned(),
+            design: request.design.name().to_owned(),
+            design_sha256: request.design.sha256.clone(),
+            preset: preset.name.clone(),
+            sampling: request.sampling,
+            exr: request.exr,
+            software_version: SOFTWARE_VERSION.to_owned(),
+            shards,
+            ids: request.ids.clone(),
+            units,
+        })
+    }
+
+    /// Estimated cost of each shard.
+    pub fn loads(&self) -> Vec<u64> {
+        let mut loads = vec![0u64; self.shards as usize];
+        for u in &self.units {
+            if let Some(l) = loads.get_mut(u.shard as usize) {
+                *l += u.cost;
+            }
+        }
+        loads
+    }
+
+    /// The assignment as text (`--plan`): a line per shard with its share, then its units.
+    pub fn describe(&self) -> String {
+        let loads = self.loads();
+        let total: u64 = loads.iter().sum::<u64>().max(1);
+        let mut s = format!(
+            "plan: design `{}`, preset `{}`, {} sequences in {} units over {} shards (cost: estimated camera samples)\n",
+            self.design,
+            self.preset,
+            self.ids.len(),
+            self.units.len(),
+            self.shards
+        );
+        for (k, load) in loads.iter().enumerate() {
+            let mine: Vec<&Unit> = self.units.iter().filter(|u| u.shard as usize == k).collect();
+            s.push_str(&format!(
+                "shard {k}/{}: {} units, cost {load} ({:.1} %)\n",
+                self.shards,
+                mine.len(),
+                100.0 * *load as f64 / total as f64
+            ));
+            for u in mine {
+                s.push_str(&format!("  {u}  cost {}\n", u.cost));
+            }
+        }
+        s
+    }
+
+    /// The names of the fields in which `other` differs from this plan.
+    pub fn differences(&self, other: &Plan) -> Vec<String> {
+        let mut d = Vec::new();
+        let mut field = |same: bool, what: String| {
+            if !same {
+                d.push(what);
+            }
+        };
+        field(self.format == other.format, format!("format (`{}`, `{}`)", self.format, other.format));
+        field(
+            self.design == other.design && self.design_sha256 == other.design_sha256,
+            format!(
+                "design (`{}` sha256 {}, `{}` sha256 {})",
+                self.design, self.design_sha256, other.design, other.design_sha256
+            ),
+        );
+        field(self.preset == other.preset, format!("preset (`{}`, `{}`)", self.preset, other.preset));
+        field(
+            self.software_version == other.software_version,
+            format!("software version ({}, {})", self.software_version, other.software_version),
+        );
+        field(self.shards == other.shards, format!("shard count N ({}, {})", self.shards, other.shards));
+        field(self.sampling == other.sampling, format!("sampling ({:?}, {:?})", self.sampling, other.sampling));
+        field(self.exr == other.exr, format!("--exr ({}, {})", self.exr, other.exr));
+        field(self.ids == other.ids, format!("selected sequences ({}, {} sequences)", self.ids.len(), other.ids.len()));
+        if d.is_empty() && self.units != other.units {
+            d.push("units (the same request planned differently)".to_owned());
+        }
+        d
+    }
+}
+
+/// A unit's record (`SEQ/units/frames-FIRST-LAST.json`): the manifest of its frames.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UnitRecord {
+    /// Always [`UNIT_FORMAT`].
+    pub format: String,
+    /// K, the shard that rendered it.
+    pub shard: u32,
+    /// N.
+    pub shards: u32,
+    /// First frame.
+    pub first: u32,
+    /// One past the last frame.
+    pub end: u32,
+    /// The sequence manifest, listing only these frames.
+    pub sequence: SequenceManifest,
+}
+
+/// What a shard run did.
+#[derive(Clone, Debug, Default)]
+pub struct ShardReport {
+    /// The shard's units (all of them).
+    pub units: usize,
+    /// Units rendered by this run.
+    pub rendered: Vec<String>,
+    /// Units skipped because they verified (`--resume`).
+    pub skipped: Vec<String>,
+    /// Units another live process was rendering, and that process (a shard run with any
+    /// ends in an error naming them).
+    pub left_to_others: Vec<(String, String)>,
+    /// Sequences whose manifest this run wrote (every unit of them was in the folder).
+    pub completed: Vec<StimulusId>,
+    /// Non-finite samples discarded.
+    pub nonfinite_samples: u64,
+    /// Wall seconds.
+    pub wall_seconds: f64,
+    /// The device, as manifests name it.
+    pub device: String,
+}
+
+/// Renders shard `shard` of `request`'s set into `request.out`.
+pub fn render_shard(request: &SetRequest<'_>, shard: ShardSpec) -> Result<ShardReport, SetError> {
+    render_shard_with(request, shard, &AtomicWriter)
+}
+
+/// Renders shard `shard`, writing every file through `writer`.
+pub fn render_shard_with(
+    request: &SetRequest<'_>,
+    shard: ShardSpec,
+    writer: &dyn FileWriter,
+) -> Result<ShardReport, SetError> {
+    let started = Instant::now();
+    let (design, preset, out) = (request.design, &request.preset, &request.out);
+    for id in &request.ids {
+        design.check_id(id)?;
+    }
+    let plan = Plan::compute(request, shard.count)?;
+    std::fs::create_dir_all(out).map_err(io_err(out, "cannot create the output folder"))?;
+    let mut folder = SetFolder::open(out, design, preset, request.sampling)?;
+    claim_plan(out, &plan, writer)?;
+    folder.publish(writer)?;
+    let env = EnvironmentMap::from_lighting(&design.lighting)?;
+    let renderer = Renderer::open(request.device, &env)?;
+
+    let mine: Vec<&Unit> = plan.units.iter().filter(|u| u.shard == shard.index).collect();
+    let progress = Progress::new(request.progress, mine.iter().map(|u| u.cost).sum(), mine.len());
+    let mut report = ShardReport { units: mine.len(), device: renderer.device_name(), ..ShardReport::default() };
+    let mut done = 0;
+    let result = (|| {
+        for unit in mine {
+            let unit_started = Instant::now();
+            let lead = unit.ids[0];
+            let units_dir = out.join(lead.to_string()).join(UNITS_DIR);
+            std::fs::create_dir_all(&units_dir).map_err(io_err(&units_dir, "cannot create the units folder"))?;
+            let lock_path = units_dir.join(unit.record_name().replace(".json", ".lock"));
+            let _lock = match study::lock::LockFile::acquire(&lock_path) {
+                Ok(lock) => lock,
+                Err(study::lock::LockError::Held { holder, .. }) => {
+                    progress.advance(unit.cost);
+                    done += 1;
+                    progress.finished(done, unit, &format!("left to the process rendering it ({holder})"), 0.0);
+                    report.left_to_others.push((unit.to_string(), format!("{holder}: {}", lock_path.display())));
+                    continue;
+                }
+                Err(study::lock::LockError::Io { path, source }) => {
+                    return Err(SetError::Io { path, action: "cannot take the unit's lock", source });
+                }
+            };
+            if request.resume && unit.ids.iter().all(|id| unit_verifies(request, &plan, unit, id)) {
+                progress.advance(unit.cost);
+                done += 1;
+                progress.finished(done, unit, "verified, skipped", 0.0);
+                report.skipped.push(unit.to_string());
+                complete_sequences(request, &plan, unit, &mut folder, writer, &mut report)?;
+                continue;
+            }
+            // Un-mark before touching files: without its record the unit is not done, and
+            // without its manifest the sequence leaves the index.
+            for id in &unit.ids {
+                let seq = out.join(id.to_string());
+                std::fs::create_dir_all(seq.join(UNITS_DIR))
+                    .map_err(io_err(&seq, "cannot create the sequence folder"))?;
+                for path in [unit.record_path(out, id), seq.join("manifest.json")] {
+                    match std::fs::remove_file(&path) {
+                        Ok(()) => {}
+                        Err(e) if e.kind() == io::ErrorKind::NotFound => {}
+                        Err(source) => return Err(SetError::Io { path, action: "cannot remove", source }),
+                    }
+                }
+                remove_temporaries(&seq);
+            }
+            folder.publish(writer)?;
+            let bar = progress.sequence_bar(&lead, unit.end - unit.first);
+            let frame_cost = unit.cost / u64::from((unit.end - unit.first).max(1));
+            let manifests = render_stream(request, &renderer, &unit.ids, unit.frames(), writer, |_| {
+                progress.advance(frame_cost);
+                if let Some(b) = &bar {
+                    b.inc(1);
+                }
+            })?;
+            if let Some(b) = bar {
+                b.finish_and_clear();
+            }
+            for (id, sequence) in unit.ids.iter().zip(manifests) {
+                report.nonfinite_samples += sequence.nonfinite_samples();
+                let record = UnitRecord {
+                    format: UNIT_FORMAT.to_owned(),
+                    shard: shard.index,
+                    shards: shard.count,
+                    first: unit.first,
+                    end: unit.end,
+                    sequence,
+                };
+                let path = unit.record_path(out, id);
+                writer.write(&path, &json_bytes(&record)).map_err(io_err(&path, "cannot write"))?;
+            }
+            report.rendered.push(unit.to_string());
+            done += 1;
+            progress.finished(done, unit, "rendered", unit_started.elapsed().as_secs_f64());
+            complete_sequences(request, &plan, unit, &mut folder, writer, &mut report)?;
+        }
+        folder.publish(writer)
+    })();
+    progress.finish();
+    result?;
+    if !report.left_to_others.is_empty() {
+        // Only one process renders a shard's units: a lock held elsewhere is another copy of
+        // this shard, or one that died on another host (whose locks are never judged stale).
+        return Err(SetError::Incomplete {
+            summary: format!(
+                "shard {shard}: {} of its units are locked by other processes and were not rendered; if those processes have ended (e.g. a preempted task on another node), remove their lock files and run the shard again with --resume",
+                report.left_to_others.len()
+            ),
+            lines: report.left_to_others.iter().map(|(unit, holder)| format!("{unit}: {holder}")).collect(),
+        });
+    }
+    report.wall_seconds = started.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+fn json_bytes<T: Serialize>(value: &T) -> Vec<u8> {
+    let mut bytes = serde_json::to_vec_pretty(value).unwrap_or_default();
+    bytes.push(b'\n');
+    bytes
+}
+
+/// Writes `plan` as the folder's `plan.json`, or checks that the one there is the same.
+fn claim_plan(out: &Path, plan: &Plan, writer: &dyn FileWriter) -> Result<(), SetError> {
+    let path = out.join(PLAN_FILE);
+    match std::fs::read(&path) {
+        Ok(bytes) => {
+            let theirs: Plan = serde_json::from_slice(&bytes).map_err(|e| SetError::Mismatch {
+                path: path.clone(),
+                message: format!("not a readable shard plan ({e}); remove it or render into another folder"),
+            })?;
+            let differences = theirs.differences(plan);
+            if !differences.is_empty() {
+                return Err(SetError::Mismatch {
+                    path,
+                    message: format!(
+                        "this folder holds shards of another plan; differs in {} (there, this run); every shard of one set must use the same design, preset, selection, --exr, --nested, blurlab version and N: render into another folder",
+                        differences.join(", ")
+                    ),
+                });
+            }
+            Ok(())
+        }
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {
+            writer.write(&path, &json_bytes(plan)).map_err(io_err(&path, "cannot write"))
+        }
+        Err(source) => Err(SetError::Io { path, action: "cannot read", source }),
+    }
+}
+
+/// Reads the record of `unit`'s member `id` under `set` and says why it is not valid
+/// (`Err`), or returns it.
+fn read_record(
+    set: &Path,
+    design: &Design,
+    preset: &Preset,
+    plan: &Plan,
+    unit: &Unit,
+    id: &StimulusId,
+    method: Method,
+) -> Result<UnitRecord, String> {
+    let path = unit.record_path(set, id);
+    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let record: UnitRecord =
+        serde_json::from_slice(&bytes).map_err(|e| format!("{}: not a unit record ({e})", path.display()))?;
+    if record.format != UNIT_FORMAT {
+        return Err(format!("{}: format `{}`, expected `{UNIT_FORMAT}`", path.display(), record.format));
+    }
+    if (record.shard, record.shards, record.first, record.end) != (unit.shard, plan.shards, unit.first, unit.end) {
+        return Err(format!(
+            "{}: rendered as shard {}/{} frames {}..{}, and the plan gives it to shard {}/{} frames {}..{}",
+            path.display(),
+            record.shard,
+            record.shards,
+            record.first,
+            record.end,
+            unit.shard,
+            plan.shards,
+            unit.first,
+            unit.end
+        ));
+    }
+    if record.sequence.software_version != plan.software_version {
+        return Err(format!(
+            "{}: rendered by blurlab {}, and the plan is of blurlab {}",
+            path.display(),
+            record.sequence.software_version,
+            plan.software_version
+        ));
+    }
+    let expected =
+        Expected { design, preset, id, method, exr: plan.exr, sampling: plan.sampling, frames: unit.frames() };
+    match expected.why_not(&set.join(id.to_string()), &record.sequence) {
+        Some(why) => Err(format!("{}: {why}", path.display())),
+        None => Ok(record),
+    }
+}
+
+fn unit_verifies(request: &SetRequest<'_>, plan: &Plan, unit: &Unit, id: &StimulusId) -> bool {
+    request
+        .method_of(id)
+        .is_ok_and(|m| read_record(&request.out, request.design, &request.preset, plan, unit, id, m.kind).is_ok())
+}
+
+/// The manifest of a whole sequence from its units' records (in frame order): their
+/// frames, and the devices that rendered them. Records of one sequence rendered on
+/// different GPU adapters or drivers are refused.
+pub fn assemble(records: &[UnitRecord]) -> Result<SequenceManifest, String> {
+    let mut sorted: Vec<&UnitRecord> = records.iter().collect();
+    sorted.sort_by_key(|r| r.first);
+    let first = sorted.first().ok_or("no units")?;
+    let mut manifest = first.sequence.clone();
+    let mut devices: Vec<String> = Vec::new();
+    let mut frames = Vec::new();
+    manifest.frames.clear();
+    for r in &sorted {
+        let mut header = r.sequence.clone();
+        header.frames.clear();
+        header.device.clone_from(&manifest.device);
+        if header.gpu != manifest.gpu {
+            return Err(format!(
+                "frames {}..{} of {} were rendered on {}, and frames {}..{} on {}: one sequence is rendered on one GPU adapter and driver (or all on CPUs); render those units again",
+                first.first, first.end, manifest.id, first.sequence.device, r.first, r.end, r.sequence.device
+            ));
+        }
+        if header != manifest {
+            let (a, b) = (serde_json::to_value(&manifest), serde_json::to_value(&header));
+            let keys: Vec<String> = match (a, b) {
+                (Ok(serde_json::Value::Object(a)), Ok(serde_json::Value::Object(b))) => {
+                    a.iter().filter(|(k, v)| b.get(*k) != Some(*v)).map(|(k, _)| format!("`{k}`")).collect()
+                }
+                _ => Vec::new(),
+            };
+            return Err(format!(
+                "the unit records of {} (frames {}..{} and {}..{}) disagree on {}",
+                manifest.id,
+                first.first,
+                first.end,
+                r.first,
+                r.end,
+                keys.join(", ")
+            ));
+        }
+        if !devices.contains(&r.sequence.device) {
+            devices.push(r.sequence.device.clone());
+        }
+        frames.extend(r.sequence.frames.iter().cloned());
+    }
+    manifest.frames = frames;
+    manifest.device = devices.join("; ");
+    Ok(manifest)
+}
+
+/// Writes the manifest of every sequence of `unit` whose units are all in the folder and
+/// verify, and publishes the index.
+fn complete_sequences(
+    request: &SetRequest<'_>,
+    plan: &Plan,
+    unit: &Unit,
+    folder: &mut SetFolder<'_>,
+    writer: &dyn FileWriter,
+    report: &mut ShardReport,
+) -> Result<(), SetError> {
+    for id in &unit.ids {
+        let method = request.method_of(id)?.kind;
+        let records: Result<Vec<UnitRecord>, String> = plan
+            .units
+            .iter()
+            .filter(|u| u.ids.contains(id))
+            .map(|u| read_record(&request.out, request.design, &request.preset, plan, u, id, method))
+            .collect();
+        let Ok(records) = records else { continue };
+        let manifest = assemble(&records).map_err(|message| SetError::Mismatch {
+            path: request.out.join(id.to_string()).join(UNITS_DIR),
+            message,
+        })?;
+        let path = request.out.join(id.to_string()).join("manifest.json");
+        let bytes = manifest_bytes(&manifest);
+        if std::fs::read(&path).ok().as_deref() != Some(bytes.as_slice()) {
+            writer.write(&path, &bytes).map_err(io_err(&path, "cannot write"))?;
+            report.completed.push(*id);
+        }
+        folder.verified.insert((*id, sha256_hex(&bytes)));
+    }
+    folder.publish(writer)
+}
+
+/// What a merge found and did.
+#[derive(Clone, Debug, Default)]
+pub struct MergeReport {
+    /// The plan.
+    pub shards: u32,
+    /// Units verified.
+    pub units: usize,
+    /// Sequences in the merged set.
+    pub sequences: usize,
+    /// Frame files copied into the output folder.
+    pub copied_files: usize,
+    /// Wall seconds.
+    pub wall_seconds: f64,
+}
+
+/// Merges the shard folders `dirs` into the set folder `out` (with no `dirs`: checks and
+/// completes the shared folder `out` in place). Refuses shard folders of different plans,
+/// and lists every unit missing, damaged, duplicated or not in the plan without writing.
+pub fn merge(out: &Path, dirs: &[PathBuf], progress: ProgressMode) -> Result<MergeReport, SetError> {
+    let started = Instant::now();
+    let dirs: Vec<PathBuf> = if dirs.is_empty() { vec![out.to_owned()] } else { dirs.to_vec() };
+    let canonical = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_owned());
+    let in_place = dirs.len() == 1 && canonical(&dirs[0]) == canonical(out);
+    if !in_place && dirs.iter().any(|d| canonical(d) == canonical(out)) {
+        return Err(SetError::Mismatch {
+            path: out.to_owned(),
+            message: "the output folder is one of several shard folders; merge into a new folder, or give a shared folder alone to check it in place".to_owned(),
+        });
+    }
+    let mut plans = Vec::new();
+    for dir in &dirs {
+        let path = dir.join(PLAN_FILE);
+        let bytes = std::fs::read(&path).map_err(|source| SetError::Io {
+            path: path.clone(),
+            action: "cannot read the shard plan (is this a folder rendered with --shard?)",
+            source,
+        })?;
+        let plan: Plan = serde_json::from_slice(&bytes)
+            .map_err(|e| SetError::Mismatch { path: path.clone(), message: format!("not a shard plan ({e})") })?;
+        if plan.format != PLAN_FORMAT {
+            return Err(SetError::Mismatch {
+                path,
+                message: format!("format `{}`, expected `{PLAN_FORMAT}`", plan.format),
+            });
+        }
+        plans.push(plan);
+    }
+    let plan = plans[0].clone();
+    for (dir, other) in dirs.iter().zip(&plans).skip(1) {
+        let differences = plan.differences(other);
+        if !differences.is_empty() {
+            return Err(SetError::Mismatch {
+                path: dir.join(PLAN_FILE),
+                message: format!(
+                    "not a shard of the same set as {}: differs in {} ({}, this folder); shards of different design files, presets, selections or blurlab versions are not merged",
+                    dirs[0].display(),
+                    differences.join(", "),
+                    dirs[0].display()
+                ),
+            });
+        }
+    }
+    if plan.software_version != SOFTWARE_VERSION {
+        return Err(SetError::Mismatch {
+            path: dirs[0].join(PLAN_FILE),
+            message: format!(
+                "rendered by blurlab {}, and this is blurlab {SOFTWARE_VERSION}; merge with the version that rendered the shards",
+                plan.software_version
+            ),
+        });
+    }
+    let design_path = dirs[0].join(crate::set::DESIGN_COPY);
+    let design = Design::load(&design_path)?;
+    if design.sha256 != plan.design_sha256 {
+        return Err(SetError::Mismatch {
+            path: design_path,
+            message: format!(
+                "has sha256 {}, and the plan's design `{}` has {}; the shard folder was changed by hand",
+                design.sha256, plan.design, plan.design_sha256
+            ),
+        });
+    }
+    let preset = design.preset(&plan.preset)?;
+    let request = SetRequest {
+        design: &design,
+        preset: preset.clone(),
+        ids: plan.ids.clone(),
+        method: design.method(),
+        out: out.to_owned(),
+        resume: false,
+        exr: plan.exr,
+        progress,
+        device: crate::DeviceChoice::Cpu,
+        sampling: plan.sampling,
+    };
+    if Plan::compute(&request, plan.shards)? != plan {
+        return Err(SetError::Mismatch {
+            path: dirs[0].join(PLAN_FILE),
+            message: format!("its units are not the plan blurlab {SOFTWARE_VERSION} computes for this request"),
+        });
+    }
+
+    // Find every unit of the plan, exactly once.
+    let bar = if progress == ProgressMode::Quiet || !io::IsTerminal::is_terminal(&io::stderr()) {
+        ProgressBar::hidden()
+    } else {
+        let b = ProgressBar::with_draw_target(Some(plan.units.len() as u64), ProgressDrawTarget::stderr());
+        b.set_style(
+            ProgressStyle::with_template("{prefix:>8} [{elapsed_precise}] {wide_bar} {pos}/{len} units ETA {eta}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        b.set_prefix("verify");
+        b
+    };
+    let mut found: BTreeMap<StimulusId, Vec<(usize, UnitRecord)>> = BTreeMap::new();
+    let (mut missing, mut duplicated) = (Vec::new(), Vec::new());
+    for unit in &plan.units {
+        for id in &unit.ids {
+            let method = request.method_of(id)?.kind;
+            let mut valid = Vec::new();
+            let mut damaged = Vec::new();
+            for (d, dir) in dirs.iter().enumerate() {
+                if !unit.record_path(dir, id).exists() {
+                    continue;
+                }
+                match read_record(dir, &design, &preset, &plan, unit, id, method) {
+                    Ok(record) => valid.push((d, record)),
+                    Err(why) => damaged.push(why),
+                }
+            }
+            let name = format!("{id} frames {}-{} (shard {}/{})", unit.first, unit.end - 1, unit.shard, plan.shards);
+            match valid.len() {
+                0 if damaged.is_empty() => missing.push(format!("missing: {name}")),
+                0 => missing.push(format!("damaged: {name}: {}", damaged.join("; "))),
+                1 => found.entry(*id).or_default().extend(valid),
+                _ => duplicated.push(format!(
+                    "duplicated: {name} in {}",
+                    valid.iter().map(|(d, _)| dirs[*d].display().to_string()).collect::<Vec<_>>().join(" and ")
+                )),
+            }
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    // Records that no unit of the plan explains.
+    let mut unexpected = Vec::new();
+    for dir in &dirs {
+        for id in &plan.ids {
+            let Ok(entries) = std::fs::read_dir(dir.join(id.to_string()).join(UNITS_DIR)) else { continue };
+            for entry in entries.flatten() {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                if !name.ends_with(".json") || name.starts_with('.') {
+                    continue;
+                }
+                if !plan.units.iter().any(|u| u.ids.contains(id) && u.record_name() == name) {
+                    unexpected.push(format!("not in the plan: {}", entry.path().display()));
+                }
+            }
+        }
+    }
+    if !missing.is_empty() || !duplicated.is_empty() || !unexpected.is_empty() {
+        let mut lines = missing;
+        lines.extend(duplicated);
+        lines.extend(unexpected);
+        return Err(SetError::Incomplete {
+            summary: format!(
+                "the shards do not add up to the set of {} units over {} shards ({} problems); nothing was written",
+                plan.units.len(),
+                plan.shards,
+                lines.len()
+            ),
+            lines,
+        });
+    }
+
+    // Assemble the set.
+    std::fs::create_dir_all(out).map_err(io_err(out, "cannot create the output folder"))?;
+    let mut folder = SetFolder::open(out, &design, &preset, plan.sampling)?;
+    let mut report = MergeReport { shards: plan.shards, ..MergeReport::default() };
+    let writer = AtomicWriter;
+    let total_units: usize = plan.units.iter().map(|u| u.ids.len()).sum();
+    let progress = Progress::new(progress, total_units as u64, found.len());
+    let mut done = 0;
+    let result = (|| {
+        for (id, records) in &found {
+            let seq = out.join(id.to_string());
+            std::fs::create_dir_all(&seq).map_err(io_err(&seq, "cannot create the sequence folder"))?;
+            if !in_place {
+                // The old manifest goes first: a kill mid-copy leaves no complete-looking
+                // sequence.
+                let manifest_path = seq.join("manifest.json");
+                if manifest_path.exists() {
+                    std::fs::remove_file(&manifest_path).map_err(io_err(&manifest_path, "cannot remove"))?;
+                }
+                for (d, record) in records {
+                    let from = dirs[*d].join(id.to_string());
+                    for f in &record.sequence.frames {
+                        let files = [Some((&f.png, &f.png_sha256)), f.exr.as_ref().zip(f.exr_sha256.as_ref())];
+                        for (name, hash) in files.into_iter().flatten() {
+                            let source = from.join(name);
+                            let bytes = std::fs::read(&source).map_err(io_err(&source, "cannot read"))?;
+                            if sha256_hex(&bytes) != *hash {
+                                return Err(SetError::Mismatch {
+                                    path: source,
+                                    message: "changed while being merged: it no longer hashes as recorded".into(),
+                                });
+                            }
+                            let target = seq.join(name);
+                            writer.write(&target, &bytes).map_err(io_err(&target, "cannot write"))?;
+                            report.copied_files += 1;
+                        }
+                    }
+                }
+            }
+            let records: Vec<UnitRecord> = records.iter().map(|(_, r)| r.clone()).collect();
+            let manifest =
+                assemble(&records).map_err(|message| SetError::Mismatch { path: seq.join(UNITS_DIR), message })?;
+            let path = seq.join("manifest.json");
+            let bytes = manifest_bytes(&manifest);
+            if std::fs::read(&path).ok().as_deref() != Some(bytes.as_slice()) {
+                writer.write(&path, &bytes).map_err(io_err(&path, "cannot write"))?;
+            }
+            folder.verified.insert((*id, sha256_hex(&bytes)));
+            report.units += records.len();
+            progress.advance(records.len() as u64);
+            done += 1;
+            progress.finished(done, id, &format!("{} units verified", records.len()), 0.0);
+        }
+        folder.publish(&writer)
+    })();
+    progress.finish();
+    result?;
+    let index = folder.rebuild()?;
+    if index.sequences.len() != found.len() {
+        return Err(SetError::Incomplete {
+            summary: format!(
+                "{}: the index lists {} sequences after the merge, expected {}",
+                out.display(),
+                index.sequences.len(),
+                found.len()
+            ),
+            lines: Vec::new(),
+        });
+    }
+    report.sequences = index.sequences.len();
+    report.wall_seconds = started.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use study::fsio::write_atomic;
+
+    use super::*;
+    use crate::DeviceChoice;
+
+    /// The shipped design with a preset `tiny` (8x4, 5 frames): a merge takes presets by name.
+    fn design() -> Design {
+        let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml");
+        let text = std::fs::read_to_string(&shipped).unwrap();
+        let dir = std::env::temp_dir().join(format!(
+            "blurlab-shard-tests-{}-{:?}",
+            std::process::id(),
+            std::thread::current().id()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("tiny.toml");
+        let tiny = "[presets.tiny]\nwidth = 8\nheight = 4\nframes = 5\nsamples_per_pixel = [1, 4, 8, 12, 16]\n";
+        write_atomic(&path, format!("{text}\n{tiny}").as_bytes()).unwrap();
+        let design = Design::load(&path).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        design
+    }
+
+    fn request<'a>(design: &'a Design, out: &Path, only: &[&str]) -> SetRequest<'a> {
+        SetRequest {
+            design,
+            preset: design.preset("tiny").unwrap(),
+            ids: only.iter().map(|s| s.parse().unwrap()).collect(),
+            method: Method::Tracer,
+            out: out.to_owned(),
+            resume: false,
+            exr: false,
+            progress: ProgressMode::Quiet,
+            device: DeviceChoice::Cpu,
+            sampling: Sampling::Independent,
+        }
+    }
+
+    #[test]
+    fn shard_specs_count_from_zero_and_bad_ones_say_what_is_expected() {
+        assert_eq!("0/4".parse::<ShardSpec>(), Ok(ShardSpec { index: 0, count: 4 }));
+        assert_eq!(" 3 / 4 ".parse::<ShardSpec>(), Ok(ShardSpec { index: 3, count: 4 }));
+        let err = |t: &str| t.parse::<ShardSpec>().unwrap_err();
+        assert!(err("4/4").contains("K = 4 is not below N = 4") && err("4/4").contains("0 to 3"), "{}", err("4/4"));
+        assert!(err("0/0").contains("N = 0"), "{}", err("0/0"));
+        assert!(err("3").contains("expected K/N"), "{}", err("3"));
+        assert!(err("a/2").contains("K `a` is not a whole number"), "{}", err("a/2"));
+        assert!(err("-1/2").contains("not a whole number"), "{}", err("-1/2"));
+    }
+
+    #[test]
+    fn the_plan_covers_every_frame_once_and_balances_the_cost() {
+        let d = design();
+        let ids = ["M1-S1-T1-A5", "M1-S1-T1-A1", "M2-S2-T3-A3-stereo", "M3-S1-T2-A2", "M1-S3-T5-A4-stereo"];
+        let req = request(&d, Path::new("unused"), &ids);
+        for n in [1u32, 2, 3, 4, 7] {
+            let plan = Plan::compute(&req, n).unwrap();
+            assert_eq!(plan, Plan::compute(&req, n).unwrap(), "deterministic");
+            for id in &req.ids {
+                let mut frames: Vec<u32> =
+                    plan.units.iter().filter(|u| u.ids == [*id]).flat_map(|u| u.frames()).collect();
+                frames.sort_unstable();
+                assert_eq!(frames, (0..5).collect::<Vec<_>>(), "{id} with N = {n}");
+            }
+            assert!(plan.units.iter().all(|u| u.shard < n && u.end > u.first));
+            let loads = plan.loads();
+            let (max, total) = (*loads.iter().max().unwrap(), loads.iter().sum::<u64>());
+            let largest_unit = plan.units.iter().map(|u| u.cost).max().unwrap();
+            // Greedy LPT: no shard exceeds an even share by more than one unit.
+            assert!(max <= total / u64::from(n) + largest_unit, "N = {n}: {loads:?}");
+            assert!(plan.describe().contains(&format!("shard {}/{n}:", n - 1)));
+        }
+        // Cost follows samples x pixels: A5 (16 spp) stereo costs 32 times A1 mono per frame.
+        let plan = Plan::compute(&request(&d, Path::new("x"), &["M1-S1-T1-A1", "M1-S1-T1-A5-stereo"]), 1).unwrap();
+        let per_frame = |u: &Unit| u.cost / u64::from(u.end - u.first);
+        assert_eq!(per_frame(&plan.units[plan.units.len() - 1]), 32 * per_frame(&plan.units[0]));
+        // Four shards of a two-sequence set split the costly sequence into frame ranges.
+        let plan = Plan::compute(&request(&d, Path::new("x"), &["M1-S1-T1-A1", "M1-S1-T1-A5-stereo"]), 4).unwrap();
+        assert!(plan.units.iter().filter(|u| u.ids[0].samples == 5).count() >= 4, "{}", plan.describe());
+        assert!(plan.loads().iter().all(|&l| l > 0), "{}", plan.describe());
+    }
+
+    #[test]
+    fn method_costs_scale_with_their_work() {
+        let mut accum = MethodSpec::of(Method::Accum);
+        accum.instants = Some(4);
+        assert_eq!(samples_cost(&accum, 10), 12);
+        assert_eq!(samples_cost(&MethodSpec::of(Method::Tracer), 10), 10);
+        let mut guertin = MethodSpec::of(Method::Guertin);
+        guertin.taps = Some(35);
+        assert_eq!(samples_cost(&guertin, 10), 15);
+    }
+
+    #[test]
+    fn shards_merge_into_the_unsharded_set_and_merge_lists_what_is_missing_or_duplicated() {
+        let d = design();
+        let dir = tempfile::tempdir().unwrap();
+        let ids = ["M2-S3-T5-A2", "M1-S1-T3-A1-stereo", "M3-S2-T4-A3"];
+        let whole = dir.path().join("whole");
+        crate::set::render_set(&request(&d, &whole, &ids)).unwrap();
+        let n = 3;
+        let shards: Vec<PathBuf> = (0..n).map(|k| dir.path().join(format!("shard{k}"))).collect();
+        for (k, out) in shards.iter().enumerate() {
+            let report = render_shard(&request(&d, out, &ids), ShardSpec { index: k as u32, count: n }).unwrap();
+            assert!(!report.rendered.is_empty(), "shard {k} has work");
+        }
+        // Shard 2 alone is missing shards 0 and 1's units, named with their shard.
+        let e = merge(&dir.path().join("partial"), &shards[2..], ProgressMode::Quiet).unwrap_err();
+        let text = e.to_string();
+        assert!(e.is_bad_input() && text.contains("missing: ") && text.contains("(shard 0/3)"), "{text}");
+        assert!(!dir.path().join("partial").exists(), "nothing written");
+        // A shard given twice is duplicated.
+        let copy = dir.path().join("copy1");
+        copy_tree(&shards[1], &copy);
+        let e = merge(&dir.path().join("dup"), &[shards.clone(), vec![copy]].concat(), ProgressMode::Quiet)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("duplicated: ") && e.contains("(shard 1/3) in "), "{e}");
+        assert!(!e.contains("missing"), "{e}");
+        // Complete: the frames are the unsharded bytes.
+        let merged = dir.path().join("merged");
+        let report = merge(&merged, &shards, ProgressMode::Quiet).unwrap();
+        assert_eq!(report.sequences, 3);
+        for id in ids {
+            let a = SequenceManifest::read(&whole.join(id).join("manifest.json")).unwrap();
+            let b = SequenceManifest::read(&merged.join(id).join("manifest.json")).unwrap();
+            assert_eq!(without_timing(a.clone()), without_timing(b.clone()), "{id}");
+            for f in &a.frames {
+                let bytes = std::fs::read(merged.join(id).join(&f.png)).unwrap();
+                assert_eq!(sha256_hex(&bytes), f.png_sha256, "{id} {}", f.png);
+            }
+        }
+        // A damaged frame is named.
+        let plan: Plan = serde_json::from_slice(&std::fs::read(shards[0].join(PLAN_FILE)).unwrap()).unwrap();
+        let victim = plan.units.iter().find(|u| u.shard == 0).unwrap();
+        let png = shards[0].join(victim.ids[0].to_string()).join(crate::set::frame_name(victim.first, "png"));
+        std::fs::write(&png, b"damaged").unwrap();
+        let e = merge(&dir.path().join("bad"), &shards, ProgressMode::Quiet).unwrap_err().to_string();
+        assert!(e.contains("damaged: ") && e.contains("does not hash as recorded"), "{e}");
+        // --resume renders only the damaged unit again.
+        let mut again = request(&d, &shards[0], &ids);
+        again.resume = true;
+        let r = render_shard(&again, ShardSpec { index: 0, count: n }).unwrap();
+        assert_eq!(r.rendered, vec![victim.to_string()], "{r:?}");
+        merge(&dir.path().join("merged2"), &shards, ProgressMode::Quiet).unwrap();
+    }
+
+    #[test]
+    fn a_shared_folder_completes_itself_and_refuses_another_shard_count() {
+        let d = design();
+        let dir = tempfile::tempdir().unwrap();
+        let ids = ["M2-S3-T5-A2", "M1-S1-T3-A5"];
+        let shared = dir.path().join("shared");
+        for k in 0..2 {
+            render_shard(&request(&d, &shared, &ids), ShardSpec { index: k, count: 2 }).unwrap();
+        }
+        let index = study::manifest::SetIndex::read(&shared.join("index.json")).unwrap();
+        assert_eq!(index.sequences.len(), 2);
+        let before = std::fs::read(shared.join("index.json")).unwrap();
+        merge(&shared, &[], ProgressMode::Quiet).unwrap();
+        assert_eq!(std::fs::read(shared.join("index.json")).unwrap(), before);
+        let plan_before = std::fs::read(shared.join(PLAN_FILE)).unwrap();
+        let e = render_shard(&request(&d, &shared, &ids), ShardSpec { index: 0, count: 3 }).unwrap_err();
+        assert!(e.is_bad_input() && e.to_string().contains("shard count N (2, 3)"), "{e}");
+        assert_eq!(std::fs::read(shared.join(PLAN_FILE)).unwrap(), plan_before);
+        assert_eq!(std::fs::read(shared.join("index.json")).unwrap(), before);
+        // Merging shards of different plans is refused by name.
+        let other = dir.path().join("other");
+        render_shard(&request(&d, &other, &ids), ShardSpec { index: 0, count: 3 }).unwrap();
+        let e = merge(&dir.path().join("m"), &[shared.clone(), other], ProgressMode::Quiet).unwrap_err().to_string();
+        assert!(e.contains("shard count N (2, 3)"), "{e}");
+    }
+
+    #[test]
+    fn nested_streams_are_units_of_all_their_levels() {
+        let d = design();
+        let dir = tempfile::tempdir().unwrap();
+        let ids = ["M2-S1-T3-A1", "M2-S1-T3-A4", "M2-S1-T3-A2"];
+        let nested = |out: &Path| SetRequest { sampling: Sampling::Nested, ..request(&d, out, &ids) };
+        let whole = dir.path().join("whole");
+        crate::set::render_set(&nested(&whole)).unwrap();
+        let plan = Plan::compute(&nested(&whole), 2).unwrap();
+        assert!(plan.units.iter().all(|u| u.ids.len() == 3), "{}", plan.describe());
+        let shards: Vec<PathBuf> = (0..2).map(|k| dir.path().join(format!("s{k}"))).collect();
+        for (k, out) in shards.iter().enumerate() {
+            render_shard(&nested(out), ShardSpec { index: k as u32, count: 2 }).unwrap();
+        }
+        let merged = dir.path().join("merged");
+        merge(&merged, &shards, ProgressMode::Quiet).unwrap();
+        for id in ids {
+            let a = SequenceManifest::read(&whole.join(id).join("manifest.json")).unwrap();
+            let b = SequenceManifest::read(&merged.join(id).join("manifest.json")).unwrap();
+            assert_eq!(without_timing(a), without_timing(b), "{id}");
+        }
+    }
+
+    fn without_timing(mut m: SequenceManifest) -> SequenceManifest {
+        for f in &mut m.frames {
+            (f.wall_seconds, f.cpu_seconds) = (0.0, 0.0);
+        }
+        m.device.clear();
+        m
+    }
+
+    fn copy_tree(from: &Path, to: &Path) {
+        std::fs::create_dir_all(to).unwrap();
+        for entry in std::fs::read_dir(from).unwrap().flatten() {
+            let target = to.join(entry.file_name());
+            if entry.file_type().unwrap().is_dir() {
+                copy_tree(&entry.path(), &target);
+            } else {
+                std::fs::copy(entry.path(), target).unwrap();
+            }
+        }
+    }
+}
