@@ -217,6 +217,25 @@ impl CostSweep {
         self.rows().into_iter().map(|r| (r.rmse.median, r.label())).min_by(|a, b| a.0.total_cmp(&b.0))
     }
 
+    /// The exponent `b` of the tracer's RMSE ~ spp^b: the least-squares slope of log median
+    /// RMSE against log samples per pixel (independent Monte Carlo gives -1/2); `None` with
+    /// fewer than two tracer settings.
+    pub fn tracer_exponent(&self) -> Option<f64> {
+        let pts: Vec<(f64, f64)> = self
+            .rows()
+            .iter()
+            .filter(|r| r.method == Method::Tracer && r.rmse.median > 0.0)
+            .map(|r| (f64::from(r.value).ln(), r.rmse.median.ln()))
+            .collect();
+        if pts.len() < 2 {
+            return None;
+        }
+        let n = pts.len() as f64;
+        let (mx, my) = (pts.iter().map(|p| p.0).sum::<f64>() / n, pts.iter().map(|p| p.1).sum::<f64>() / n);
+        let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+        Some(pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx)
+    }
+
     /// The largest standard error of the references.
     pub fn reference_standard_error(&self) -> f64 {
         self.references.iter().map(|r| r.standard_error).fold(0.0, f64::max)
@@ -307,6 +326,8 @@ mod tests {
         assert!((rows[0].psnr_db - 13.979).abs() < 1e-3);
         assert_eq!(rows[0].label(), "tracer spp=4");
         assert_eq!(sweep.smallest_error().unwrap().0, 0.2);
+        // 0.5 at 1 spp, 0.2 at 4: log(0.4) / log(4).
+        assert!((sweep.tracer_exponent().unwrap() - 0.4f64.ln() / 4f64.ln()).abs() < 1e-12);
         let csv = sweep.csv();
         assert_eq!(csv.lines().count(), 3);
         assert!(csv.lines().nth(1).unwrap().starts_with("tracer,spp,4,4,3,0.040000"), "{csv}");
