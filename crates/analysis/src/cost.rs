@@ -293,6 +293,9 @@ impl Figure for CostFigure {
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
+            .x_label_formatter(&|v| format!("{v:.3}"))
+            .y_label_formatter(&|v| format!("{v:.3}"))
+            .light_line_style(BLACK.mix(0.04))
             .x_desc("seconds per frame (median)")
             .y_desc(self.y_desc.as_str())
             .label_style(("sans-serif", 13.0))
@@ -368,9 +371,10 @@ fn curves(rows: &[CostRow], error: impl Fn(&CostRow) -> f64) -> Vec<(String, Vec
                 Method::Analytic => "analytic (intervals)".to_owned(),
                 _ => format!("{m} (taps, {input} spp in)"),
             };
-            let mut pts: Vec<(f64, f64)> = rs.iter().map(|r| (r.wall_seconds.median, error(r))).collect();
-            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-            (label, pts)
+            // Along the knob, coarsest first (measured times can be out of order).
+            let mut rs = rs.clone();
+            rs.sort_by_key(|r| r.value);
+            (label, rs.iter().map(|r| (r.wall_seconds.median, error(r))).collect())
         })
         .collect()
 }
