@@ -9,12 +9,14 @@
 //! cost-aware equivalence included), [`report`] and [`plots`] write the report folder, and
 //! [`votes`] reads published vote totals.
 
+pub mod cost;
 pub mod experiment;
 pub mod factors;
 pub mod grouping;
 pub mod logs;
 pub mod paired;
 pub mod plots;
+pub mod prediction;
 pub mod report;
 pub mod scaling;
 pub mod srange;

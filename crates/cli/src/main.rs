@@ -26,6 +26,8 @@ enum Command {
     Stats(cmd::stats::Args),
     /// Benchmarks printing JSON.
     Bench(cmd::bench::Args),
+    /// What accuracy costs in time: every method's error against its render time.
+    Cost(cmd::cost::Args),
     /// The main job: render the quick set, run simulated participants, analyse them.
     Demo(cmd::demo::Args),
 }
@@ -39,6 +41,7 @@ fn main() -> std::process::ExitCode {
         Command::Analyze(args) => cmd::analyze::run(args),
         Command::Stats(args) => cmd::stats::run(args),
         Command::Bench(args) => cmd::bench::run(args),
+        Command::Cost(args) => cmd::cost::run(args),
         Command::Demo(args) => cmd::demo::run(args),
     };
     match result {

@@ -12,6 +12,7 @@
 
 pub mod accum;
 pub mod analytic;
+pub mod cost;
 pub mod device;
 pub mod env;
 pub mod filter_timing;

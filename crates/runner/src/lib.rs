@@ -15,6 +15,7 @@
 //! - [`gpu`]: frames onto the GPU as textures; the anaglyph composed there by a kernel.
 //! - [`calibration`]: scaling a stimulus to the visual angle the definition asks for.
 //! - [`simulate`]: simulated observers running whole sessions headlessly.
+//! - [`flip_observer`]: the image-computable observer's FLIP distances between sequences.
 //! - [`app`]: the participant's window.
 //! - [`bench`]: measurements for `blurlab bench playback`.
 
@@ -22,6 +23,7 @@ pub mod app;
 pub mod bench;
 pub mod calibration;
 pub mod display;
+pub mod flip_observer;
 pub mod gpu;
 pub mod playback;
 pub mod schedule;

@@ -8,6 +8,9 @@
 //!   the reference's. Qualities come from `PATH` (CSV lines `id,quality`; `#` comments; a
 //!   stereo id falls back to its mono twin) or from [`rule_quality`].
 //! - `random`: a fair coin.
+//! - `flip[:sigma=S]`: the image-computable observer of [`crate::flip_observer`]: FLIP
+//!   distances of the frames themselves to the gold standard (2AFC) or to the reference
+//!   (matching), plus Gaussian decision noise of `S` FLIP units.
 //!
 //! Every draw for trial `k` comes from a PCG-64 seeded with `mix(seed, [OBSERVER_STREAM, k])`,
 //! so an interrupted and resumed simulated session writes the same answers as an
@@ -107,6 +110,13 @@ pub enum ObserverModel {
     },
     /// Answers at random.
     Random,
+    /// FLIP distances of the frames (`crate::flip_observer`) plus Gaussian decision noise.
+    Flip {
+        /// Standard deviation of the decision noise, FLIP units.
+        sigma: f64,
+        /// `(from, to)` distances, filled by [`ObserverModel::prepare`] before the first trial.
+        distances: HashMap<(StimulusId, StimulusId), f64>,
+    },
 }
 
 impl FromStr for ObserverModel {
@@ -116,6 +126,22 @@ impl FromStr for ObserverModel {
         let (name, params) = text.split_once(':').unwrap_or((text, ""));
         match name {
             "random" if params.is_empty() => Ok(ObserverModel::Random),
+            "flip" => {
+                let mut sigma = crate::flip_observer::DEFAULT_SIGMA;
+                for param in params.split(',').filter(|p| !p.is_empty()) {
+                    match param.split_once('=') {
+                        Some(("sigma", v)) => {
+                            sigma = v
+                                .parse()
+                                .ok()
+                                .filter(|s: &f64| s.is_finite() && *s >= 0.0)
+                                .ok_or_else(|| bad(format!("sigma `{v}` is not a number >= 0")))?;
+                        }
+                        _ => return Err(bad(format!("unknown parameter `{param}` (expected sigma=S)"))),
+                    }
+                }
+                Ok(ObserverModel::Flip { sigma, distances: HashMap::new() })
+            }
             "thurstone" => {
                 let mut sigma = 1.0;
                 let mut quality = Quality::Rule;
@@ -134,14 +160,38 @@ impl FromStr for ObserverModel {
                 }
                 Ok(ObserverModel::Thurstone { sigma, quality })
             }
-            _ => Err(bad("expected `thurstone[:sigma=S][,file=PATH]` or `random`".into())),
+            _ => Err(bad("expected `thurstone[:sigma=S][,file=PATH]`, `flip[:sigma=S]` or `random`".into())),
         }
     }
 }
 
 impl ObserverModel {
+    /// The model ready for `schedule` on `set`: a FLIP observer with the distances it needs
+    /// (computed from the frames); other models as they are.
+    pub fn prepare(&self, set: &StimulusSet, schedule: &[Trial]) -> Result<ObserverModel, RunnerError> {
+        match self {
+            ObserverModel::Flip { sigma, distances } if distances.is_empty() => {
+                Ok(ObserverModel::Flip { sigma: *sigma, distances: crate::flip_observer::distances(set, schedule)? })
+            }
+            other => Ok(other.clone()),
+        }
+    }
+
     /// Checks the model knows every stimulus of the schedule.
     pub fn check(&self, schedule: &[Trial]) -> Result<(), RunnerError> {
+        if let ObserverModel::Flip { distances, .. } = self {
+            let known = |t: &Trial, o: &StimulusId| match t.task {
+                Task::TwoAfc => distances.keys().any(|(_, to)| to == o),
+                Task::Match => distances.contains_key(&(t.shown[0], *o)),
+            };
+            let missing = schedule.iter().find(|t| t.options().iter().any(|o| !known(t, o)));
+            if let Some(t) = missing {
+                return Err(RunnerError::Input {
+                    what: "--simulate flip".into(),
+                    message: format!("no FLIP distance for trial {} ({})", t.index, crate::join_ids(&t.shown)),
+                });
+            }
+        }
         if let ObserverModel::Thurstone { quality: quality @ Quality::Table { path, .. }, .. } = self {
             let mut missing: Vec<StimulusId> =
                 schedule.iter().flat_map(|t| t.shown.iter()).filter(|id| quality.of(id).is_none()).copied().collect();
@@ -163,6 +213,17 @@ impl ObserverModel {
         let options = trial.options();
         let (slot, difficulty) = match self {
             ObserverModel::Random => (crate::index_below(&mut rng, 2), 1.0),
+            ObserverModel::Flip { sigma, distances } => {
+                // 2AFC schedules hold one pair per option: (its gold standard, itself).
+                let to_gold = |o: &StimulusId| distances.iter().find(|((_, to), _)| to == o).map_or(0.0, |(_, v)| *v);
+                let from = |r: StimulusId, o: &StimulusId| distances.get(&(r, *o)).copied().unwrap_or(0.0);
+                let (a, b) = match trial.task {
+                    Task::TwoAfc => (to_gold(&options[0]), to_gold(&options[1])),
+                    Task::Match => (from(trial.shown[0], &options[0]), from(trial.shown[0], &options[1])),
+                };
+                let (pa, pb) = (a + sigma * crate::normal(&mut rng), b + sigma * crate::normal(&mut rng));
+                (usize::from(pb < pa), (a - b).abs() / sigma.max(1e-9))
+            }
             ObserverModel::Thurstone { sigma, quality } => {
                 let q = |id: &StimulusId| quality.of(id).unwrap_or(0.0);
                 let mut percept = |id: &StimulusId| q(id) + sigma * crate::normal(&mut rng);
@@ -247,6 +308,7 @@ pub fn run_session_with(
     let session_options =
         SessionOptions { seed: Some(seed), display: Some(display), attributes: options.attributes.clone() };
     let mut session = Session::open(definition, &set, results_dir, participant, &session_options)?;
+    let model = &model.prepare(&set, &session.schedule)?;
     model.check(&session.schedule)?;
     let started_at = session.next;
     let mut answered = 0;

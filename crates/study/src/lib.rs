@@ -3,6 +3,7 @@
 //! response logs, durable file writing, the sRGB curve and small statistics. It renders nothing and shows nothing.
 
 pub mod color;
+pub mod cost;
 pub mod design;
 pub mod experiment;
 pub mod fsio;

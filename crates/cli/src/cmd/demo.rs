@@ -1,8 +1,8 @@
 //! `blurlab demo`: the main job end to end, on a fresh machine without a GPU. Renders the
 //! quick stimulus set for the interaction experiment (or reuses the sequences that verify),
 //! runs simulated participants (Thurstone observers, recorded seeds) through
-//! mono-3-interactions and stereo-3-interactions, analyses them and prints where the report
-//! is. With `--gui` it opens the runner's window on the same set instead of simulating.
+//! mono-3-interactions and stereo-3-interactions, analyses them, ends with a small cost
+//! report of the quick set (`blurlab cost`, the groups marked) and prints where both are. With `--gui` it opens the runner's window on the same set instead of simulating.
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -108,32 +108,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 
     let results = args.out.join("results");
-    if results.exists() {
-        if !results.join(MARKER).exists() {
-            return Err(BadInput(format!(
-                "{} exists and was not made by the demo; choose another --out",
-                results.display()
-            ))
-            .into());
-        }
-        std::fs::remove_dir_all(&results).with_context(|| format!("removing the previous {}", results.display()))?;
-    }
-    std::fs::create_dir_all(&results).with_context(|| format!("creating {}", results.display()))?;
-    study::fsio::write_atomic(&results.join(MARKER), b"simulated results of `blurlab demo`; replaced on every run\n")
-        .with_context(|| format!("writing into {}", results.display()))?;
     let model = ObserverModel::Thurstone { sigma: 1.0, quality: Quality::Rule };
-    for d in &definitions {
-        for k in 1..=args.participants {
-            let experienced = if k % 2 == 0 { "yes" } else { "no" };
-            let options = SimulateOptions {
-                attributes: vec![("cg_experience".to_owned(), experienced.to_owned())],
-                ..SimulateOptions::default()
-            };
-            run_session_with(d, &args.set, &results, &format!("SIM{k:02}"), &model, args.seed + u64::from(k), &options)
-                .map_err(runner_error)?;
-        }
-        eprintln!("demo: {} simulated participants ran {}", args.participants, d.name);
-    }
+    simulate_all(&args, &definitions, &results, &model, "simulated participants")?;
+    // The image-computable observer on the same trials: groups predicted from the frames.
+    let predicted_results = args.out.join("results-flip");
+    let flip: ObserverModel = "flip".parse().map_err(runner_error)?;
+    simulate_all(&args, &definitions, &predicted_results, &flip, "FLIP observers")?;
 
     let logs: Vec<PathBuf> = EXPERIMENTS.iter().map(|n| results.join(n)).collect();
     let options = AnalysisOptions {
@@ -144,6 +124,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut report = build_report(&logs, Some(&args.set), Some(&args.experiments), options)?;
     let folder = args.out.join("report");
     let md = write_report(&mut report, &folder)?;
+    let predicted_logs: Vec<PathBuf> = EXPERIMENTS.iter().map(|n| predicted_results.join(n)).collect();
+    let mut predicted = build_report(&predicted_logs, Some(&args.set), Some(&args.experiments), options)?;
+    write_report(&mut predicted, &args.out.join("report-flip"))?;
+    let side = analysis::prediction::side_by_side(
+        &report,
+        &predicted,
+        "simulated FLIP observers (`--simulate flip`, default decision noise), the same trials and seeds",
+    );
+    let side_path = folder.join("predicted-vs-measured.md");
+    study::fsio::write_atomic(&side_path, side.as_bytes())
+        .with_context(|| format!("writing {}", side_path.display()))?;
     for e in &report.experiments {
         if let Some(p) = &e.paired {
             let groups: Vec<String> = p
@@ -176,6 +167,51 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         }
     }
-    println!("report: {}", md.display());
+    println!("report: {} (groups predicted by FLIP beside them: {})", md.display(), side_path.display());
+
+    // What the equivalent groups cost: the tracer and the accumulation buffer swept on the
+    // interaction experiments' cell (checker, medium speed, full shutter) at the quick
+    // preset, the report's groups marked on the curves.
+    let cost_args = super::cost::demo_args(&args.design, "M2-S2-T5", Some(folder.clone()), args.out.join("cost"));
+    eprintln!("demo: cost sweep of {} (quick preset) into {}", cost_args.id, cost_args.out.display());
+    let cost_md = super::cost::cost_report(&cost_args)?;
+    println!("cost report: {}", cost_md.display());
+    Ok(())
+}
+
+/// Runs every experiment's simulated participants with `model` into a fresh `results`
+/// folder (one the demo made before is replaced; any other is refused).
+fn simulate_all(
+    args: &Args,
+    definitions: &[ExperimentDefinition],
+    results: &Path,
+    model: &ObserverModel,
+    who: &str,
+) -> anyhow::Result<()> {
+    if results.exists() {
+        if !results.join(MARKER).exists() {
+            return Err(BadInput(format!(
+                "{} exists and was not made by the demo; choose another --out",
+                results.display()
+            ))
+            .into());
+        }
+        std::fs::remove_dir_all(results).with_context(|| format!("removing the previous {}", results.display()))?;
+    }
+    std::fs::create_dir_all(results).with_context(|| format!("creating {}", results.display()))?;
+    study::fsio::write_atomic(&results.join(MARKER), b"simulated results of `blurlab demo`; replaced on every run\n")
+        .with_context(|| format!("writing into {}", results.display()))?;
+    for d in definitions {
+        for k in 1..=args.participants {
+            let experienced = if k % 2 == 0 { "yes" } else { "no" };
+            let options = SimulateOptions {
+                attributes: vec![("cg_experience".to_owned(), experienced.to_owned())],
+                ..SimulateOptions::default()
+            };
+            run_session_with(d, &args.set, results, &format!("SIM{k:02}"), model, args.seed + u64::from(k), &options)
+                .map_err(runner_error)?;
+        }
+        eprintln!("demo: {} {who} ran {}", args.participants, d.name);
+    }
     Ok(())
 }

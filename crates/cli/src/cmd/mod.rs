@@ -2,6 +2,7 @@
 
 pub mod analyze;
 pub mod bench;
+pub mod cost;
 pub mod demo;
 pub mod render_frame;
 pub mod run;

@@ -26,7 +26,9 @@ pub struct Args {
     /// Results root: logs go to RESULTS/EXPERIMENT/PARTICIPANT/session-N.csv.
     #[arg(long, default_value = "results")]
     results: PathBuf,
-    /// Run headlessly with a simulated observer: `thurstone[:sigma=S][,file=PATH]` or `random`.
+    /// Run headlessly with a simulated observer: `thurstone[:sigma=S][,file=PATH]`, `random`, or
+    /// `flip[:sigma=S]` (answers from the frames: FLIP distance to the gold standard A5 of the
+    /// same material, speed and shutter; matching picks the candidate nearer the reference).
     #[arg(long)]
     simulate: Option<String>,
     /// Seed of a new session's schedule (and of the simulated observer). A resumed session

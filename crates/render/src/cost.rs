@@ -1,0 +1,627 @@
+//! What accuracy costs in time (`blurlab cost`): every rendering method swept over its
+//! accuracy knob on chosen frames of one material, speed and shutter, each point rendered
+//! several times with independent seeds and measured against a converged tracer reference.
+//!
+//! - The reference is the tracer at `reference_spp` samples per pixel, rendered as two
+//!   independent halves with seeds mixed apart from every point's (as in `quality`); half
+//!   the RMS difference of the halves is its own standard error on display values. The sweep
+//!   refuses a reference whose standard error is not below a tenth of the smallest median
+//!   error it judges (checked on each method's finest setting before the rest is swept, and
+//!   on the whole table at the end).
+//! - Knobs ([`sweep_settings`]): tracer samples per pixel (powers of two up to `max_spp`
+//!   and the preset's sampling levels); accumulation-buffer instants (centred, 4 samples per
+//!   instant, up to `max_spp` samples in all); McGuire's and Guertin's taps at each of the
+//!   preset's sampling levels as their G-buffer input; the analytic rasterizer's interval
+//!   budget (lighting samples: the preset's highest level).
+//! - Each point records wall time (and GPU time where measured), work units and its error:
+//!   display RMSE (exposure, tone map, sRGB), linear RMSE and mean FLIP (`perceptual`) of the
+//!   8-bit frame as shown, at the design's pixels per degree.
+//! - Resumable: the request's identity is kept in `OUT/cost-request.json`, each reference
+//!   in `OUT/reference/` and each point in `OUT/points/KEY.json` as soon as it is measured
+//!   (atomic writes); a rerun keeps what is there and measures only what is missing, so a
+//!   killed sweep continues and its table is the uninterrupted one's.
+//! - FLIP error maps of each method's coarsest and finest setting (frame of the first
+//!   listed frame, first repetition) go to `OUT/maps/` beside the frames and the reference.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use perceptual::SrgbImage;
+use serde::{Deserialize, Serialize};
+use study::Method;
+use study::cost::{COST_FORMAT, CostPoint, CostReference, CostSweep, point_key};
+use study::design::{Design, Preset};
+use study::ids::{Factor, MethodTag, StimulusId, View};
+use study::method::MethodSpec;
+use study::scene::FrameScene;
+use study::seed::mix;
+
+use crate::io::{LinearImage, decode_exr, encode_exr, encode_png_srgb, to_srgb8};
+use crate::quality::display_rmse;
+use crate::{RenderError, Renderer};
+
+/// Taps of the filters' sweep.
+pub const FILTER_TAPS: [u32; 4] = [3, 7, 15, 35];
+/// Interval budgets of the analytic rasterizer's sweep.
+pub const ANALYTIC_INTERVALS: [u32; 5] = [4, 8, 16, 32, 64];
+/// Samples per instant of the accumulation buffer's sweep.
+pub const ACCUM_SAMPLES_PER_INSTANT: u32 = 4;
+/// Largest allowed `max_spp` and `reference_spp`.
+pub const MAX_SPP: u32 = 1 << 20;
+
+/// Why a sweep failed.
+#[derive(Debug, thiserror::Error)]
+pub enum CostError {
+    /// The request does not fit the design or is malformed (bad input).
+    #[error("{0}")]
+    Request(String),
+    /// The reference's own noise is too large for the errors it judges (bad input: raise
+    /// `--reference-spp`).
+    #[error(
+        "the reference is not converged enough: its standard error {standard_error:.6} (display RMS, {spp} spp) is not below a tenth of the smallest error it judges, {smallest:.6} ({label}); use --reference-spp {suggested} or more (in a new --out), or a smaller --max-spp"
+    )]
+    NotConverged {
+        /// The reference's standard error.
+        standard_error: f64,
+        /// Its samples per pixel.
+        spp: u32,
+        /// The smallest median error judged.
+        smallest: f64,
+        /// The setting that has it.
+        label: String,
+        /// Samples per pixel that would do (from 1/sqrt(spp)), rounded up to a power of two.
+        suggested: u32,
+    },
+    /// The design could not give a frame.
+    #[error(transparent)]
+    Design(#[from] study::design::DesignError),
+    /// A render failed.
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    /// FLIP failed.
+    #[error("FLIP: {0}")]
+    Flip(#[from] perceptual::FlipError),
+    /// A file could not be read or written.
+    #[error("{path}: {message}")]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+impl CostError {
+    /// Whether the user can fix it by changing the request.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(self, CostError::Request(_) | CostError::NotConverged { .. } | CostError::Design(_))
+    }
+}
+
+/// What to measure.
+#[derive(Clone, Debug)]
+pub struct CostRequest {
+    /// Preset name.
+    pub preset: String,
+    /// The cell, `M3-S3-T5` (an `-A<a>` level, a method tag and `-stereo` are accepted; the
+    /// level and tag are ignored, `-stereo` sweeps stereo frames).
+    pub cell: String,
+    /// Frames (indices within the preset); empty: the preset's middle frame.
+    pub frames: Vec<u32>,
+    /// Methods swept; empty: every method.
+    pub methods: Vec<Method>,
+    /// Samples per pixel of the reference.
+    pub reference_spp: u32,
+    /// The tracer's largest samples per pixel (and the accumulation buffer's total).
+    pub max_spp: u32,
+    /// Renders per point.
+    pub repetitions: u32,
+    /// Output folder.
+    pub out: PathBuf,
+    /// Stop after measuring this many new points (the sweep stays resumable); `None`: all.
+    pub max_new_points: Option<usize>,
+}
+
+/// The identity of a sweep folder: what every point in it was measured against.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct Identity {
+    format: String,
+    design_sha256: String,
+    preset: String,
+    cell: String,
+    stereo: bool,
+    reference_spp: u32,
+}
+
+/// One setting of a method's knob.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Setting {
+    /// The method and its settings.
+    pub spec: MethodSpec,
+    /// The knob's name.
+    pub knob: &'static str,
+    /// Its value.
+    pub value: u32,
+    /// Samples per pixel of the frame scene handed to the method.
+    pub input_spp: u32,
+}
+
+/// Every setting swept for `method`, coarsest first.
+pub fn sweep_settings(method: Method, preset: &Preset, max_spp: u32) -> Vec<Setting> {
+    let levels: Vec<u32> = {
+        let mut l: Vec<u32> = preset.samples_per_pixel.iter().copied().filter(|&s| s <= max_spp).collect();
+        l.sort_unstable();
+        l.dedup();
+        l
+    };
+    let top_level = preset.samples_per_pixel.iter().copied().max().unwrap_or(1);
+    match method {
+        Method::Tracer => {
+            let mut spp: Vec<u32> = std::iter::successors(Some(1u32), |s| s.checked_mul(2))
+                .take_while(|&s| s <= max_spp)
+                .chain(levels.iter().copied())
+                .collect();
+            spp.sort_unstable();
+            spp.dedup();
+            spp.into_iter()
+                .map(|s| Setting { spec: MethodSpec::of(Method::Tracer), knob: "spp", value: s, input_spp: s })
+                .collect()
+        }
+        Method::Accum => {
+            let per = ACCUM_SAMPLES_PER_INSTANT.min(max_spp);
+            std::iter::successors(Some(1u32), |k| k.checked_mul(2))
+                .take_while(|&k| k * per <= max_spp)
+                .map(|k| Setting {
+                    spec: MethodSpec {
+                        instants: Some(k),
+                        samples_per_instant: Some(per),
+                        jitter: Some(false),
+                        ..MethodSpec::of(Method::Accum)
+                    },
+                    knob: "instants",
+                    value: k,
+                    input_spp: per,
+                })
+                .collect()
+        }
+        Method::Mcguire | Method::Guertin => levels
+            .iter()
+            .flat_map(|&level| {
+                FILTER_TAPS.iter().map(move |&taps| Setting {
+                    spec: MethodSpec { taps: Some(taps), ..MethodSpec::of(method) },
+                    knob: "taps",
+                    value: taps,
+                    input_spp: level,
+                })
+            })
+            .collect(),
+        Method::Analytic => ANALYTIC_INTERVALS
+            .iter()
+            .map(|&intervals| Setting {
+                spec: MethodSpec {
+                    intervals: Some(intervals),
+                    lighting_samples: Some(top_level),
+                    ..MethodSpec::of(Method::Analytic)
+                },
+                knob: "intervals",
+                value: intervals,
+                input_spp: top_level,
+            })
+            .collect(),
+    }
+}
+
+/// Work units of one render of `setting` over `pixels` pixels.
+fn work_units(setting: &Setting, pixels: u64) -> u64 {
+    let per_pixel = match setting.spec.kind {
+        Method::Tracer => u64::from(setting.value),
+        Method::Accum => u64::from(setting.value) * u64::from(setting.input_spp),
+        Method::Mcguire | Method::Guertin | Method::Analytic => u64::from(setting.value),
+    };
+    per_pixel * pixels
+}
+
+/// `(material, speed, shutter, view)` of `text` (`M3-S3-T5`, optionally `-A<a>`, a method
+/// tag, `-stereo`), checked against the design.
+pub fn parse_cell(design: &Design, text: &str) -> Result<(u8, u8, u8, View), CostError> {
+    let bad = |why: String| {
+        CostError::Request(format!("--id `{text}`: {why} (expected material, speed and shutter, e.g. `M3-S3-T5`)"))
+    };
+    let mut parts: Vec<&str> = text.split('-').collect();
+    let view = if parts.last() == Some(&"stereo") {
+        parts.pop();
+        View::Stereo
+    } else {
+        View::Mono
+    };
+    if parts.len() > 3 && parts[3].starts_with('A') {
+        parts.remove(3);
+    }
+    if parts.len() == 4 && parts[3].parse::<MethodTag>().is_ok() {
+        parts.pop();
+    }
+    if parts.len() != 3 {
+        return Err(bad(format!("{} parts where 3 are expected", parts.len())));
+    }
+    let mut levels = [0u8; 3];
+    for (i, (factor, part)) in [Factor::Material, Factor::Speed, Factor::Shutter].into_iter().zip(&parts).enumerate() {
+        let letter = factor.letter();
+        let number = part
+            .strip_prefix(letter)
+            .and_then(|n| n.parse::<u8>().ok())
+            .ok_or_else(|| bad(format!("`{part}` is not {letter}<level>")))?;
+        let count = design.level_count(factor);
+        if number == 0 || number > count {
+            return Err(bad(format!(
+                "{letter}{number} is not a level of the design (it has {letter}1..{letter}{count})"
+            )));
+        }
+        levels[i] = number;
+    }
+    Ok((levels[0], levels[1], levels[2], view))
+}
+
+/// The scene with seeds mixed apart by `salt` and `spp` samples.
+fn reseeded(scene: &FrameScene, salt: &[u64], spp: u32) -> FrameScene {
+    let mut s = scene.clone();
+    s.samples_per_pixel = spp;
+    for v in &mut s.views {
+        v.seed = mix(v.seed, salt);
+    }
+    s
+}
+
+fn file_error(path: &Path, e: impl std::fmt::Display) -> CostError {
+    CostError::File { path: path.to_owned(), message: e.to_string() }
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<(), CostError> {
+    study::fsio::write_atomic(path, bytes).map_err(|e| file_error(path, e))
+}
+
+fn png_rgb8(width: u32, height: u32, bytes: &[u8]) -> Vec<u8> {
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(bytes, width, height, image::ExtendedColorType::Rgb8)
+        .expect("PNG encoding into memory cannot fail for a consistent image");
+    out
+}
+
+/// A reference frame: the image and its record.
+struct Reference {
+    image: LinearImage,
+    srgb: SrgbImage,
+    record: CostReference,
+}
+
+/// The sweep's fixed context.
+struct Context<'a, 'env> {
+    design: &'a Design,
+    renderer: &'a Renderer<'env>,
+    preset: Preset,
+    id: StimulusId,
+    ppd: f64,
+    eyes: u32,
+    out: PathBuf,
+}
+
+impl Context<'_, '_> {
+    fn base_scene(&self, frame: u32) -> Result<FrameScene, CostError> {
+        Ok(self.design.frame_scene_with(&self.preset, &self.id, frame)?)
+    }
+
+    fn srgb(&self, image: &LinearImage, scene: &FrameScene) -> Result<SrgbImage, CostError> {
+        Ok(SrgbImage::new(image.width, image.height, to_srgb8(image, &scene.exposure))?)
+    }
+
+    /// The reference of `frame`, from `OUT/reference/` or rendered (and kept there).
+    fn reference(&self, frame: u32, spp: u32) -> Result<Reference, CostError> {
+        let dir = self.out.join("reference");
+        let exr = dir.join(format!("frame-{frame:04}.exr"));
+        let json = dir.join(format!("frame-{frame:04}.json"));
+        let scene = self.base_scene(frame)?;
+        if exr.exists() && json.exists() {
+            let record: CostReference =
+                serde_json::from_slice(&std::fs::read(&json).map_err(|e| file_error(&json, e))?)
+                    .map_err(|e| file_error(&json, e))?;
+            let image =
+                decode_exr(&std::fs::read(&exr).map_err(|e| file_error(&exr, e))?).map_err(|e| file_error(&exr, e))?;
+            let srgb = self.srgb(&image, &scene)?;
+            return Ok(Reference { image, srgb, record });
+        }
+        std::fs::create_dir_all(&dir).map_err(|e| file_error(&dir, e))?;
+        let half = (spp / 2).max(1);
+        let tracer = MethodSpec::of(Method::Tracer);
+        let started = Instant::now();
+        let a = self.renderer.render(&tracer, &reseeded(&scene, &[0x5EFA_C057], half))?.image;
+        let b = self.renderer.render(&tracer, &reseeded(&scene, &[0x5EFB_C057], half))?.image;
+        let wall_seconds = started.elapsed().as_secs_f64();
+        let image = crate::tracer::bench::average(&a, &b);
+        // The mean of two independent halves has half the variance of one: its standard
+        // error is half the RMS difference of the halves.
+        let standard_error = 0.5 * display_rmse(&a, &b, &scene.exposure);
+        let record = CostReference { frame, spp: 2 * half, standard_error, wall_seconds };
+        write(&exr, &encode_exr(&image).map_err(|e| file_error(&exr, e))?)?;
+        write(&dir.join(format!("frame-{frame:04}.png")), &encode_png_srgb(&image, &scene.exposure))?;
+        write(&json, &serde_json::to_vec_pretty(&record).map_err(|e| file_error(&json, e))?)?;
+        let srgb = self.srgb(&image, &scene)?;
+        Ok(Reference { image, srgb, record })
+    }
+
+    /// Measures one point (or reads it back), writing its map when `map` is set.
+    fn point(
+        &self,
+        setting: &Setting,
+        frame: u32,
+        repetition: u32,
+        reference: &Reference,
+        map: bool,
+    ) -> Result<(CostPoint, bool), CostError> {
+        let key = point_key(setting.spec.kind, setting.knob, setting.value, setting.input_spp, frame, repetition);
+        let path = self.out.join("points").join(format!("{key}.json"));
+        if path.exists() {
+            let point: CostPoint = serde_json::from_slice(&std::fs::read(&path).map_err(|e| file_error(&path, e))?)
+                .map_err(|e| file_error(&path, e))?;
+            return Ok((point, false));
+        }
+        let base = self.base_scene(frame)?;
+        let salt = [0xC057, setting.spec.kind as u64, u64::from(setting.value), u64::from(repetition)];
+        let scene = reseeded(&base, &salt, setting.input_spp);
+        let started = Instant::now();
+        let frame_out = self.renderer.render(&setting.spec, &scene)?;
+        let wall_seconds = started.elapsed().as_secs_f64();
+        let image = frame_out.image;
+        let srgb = self.srgb(&image, &scene)?;
+        let flip_mean = perceptual::flip_eyes(&reference.srgb, &srgb, self.eyes, self.ppd)?;
+        let pixels = u64::from(image.width) * u64::from(image.height);
+        let point = CostPoint {
+            method: setting.spec.kind,
+            knob: setting.knob.to_owned(),
+            value: setting.value,
+            input_spp: setting.input_spp,
+            frame,
+            repetition,
+            wall_seconds,
+            gpu_seconds: frame_out.gpu_seconds,
+            camera_samples: frame_out.camera_samples,
+            work_units: work_units(setting, pixels),
+            rmse: display_rmse(&image, &reference.image, &scene.exposure),
+            rmse_linear: image.rms_difference(&reference.image),
+            flip: flip_mean,
+        };
+        if map {
+            let dir = self.out.join("maps");
+            std::fs::create_dir_all(&dir).map_err(|e| file_error(&dir, e))?;
+            write(&dir.join(format!("{key}.png")), &encode_png_srgb(&image, &scene.exposure))?;
+            let flip = perceptual::flip(&reference.srgb, &srgb, self.ppd)?;
+            write(&dir.join(format!("{key}-flip.png")), &png_rgb8(flip.width, flip.height, &flip.magma_rgb8()))?;
+        }
+        let dir = self.out.join("points");
+        std::fs::create_dir_all(&dir).map_err(|e| file_error(&dir, e))?;
+        write(&path, &serde_json::to_vec_pretty(&point).map_err(|e| file_error(&path, e))?)?;
+        Ok((point, true))
+    }
+}
+
+/// How far the sweep is, for a progress bar.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// Points done (measured or kept).
+    pub done: usize,
+    /// Points in all.
+    pub total: usize,
+    /// Points measured by this run.
+    pub measured: usize,
+}
+
+/// What a run did.
+#[derive(Clone, Debug)]
+pub struct CostOutcome {
+    /// The sweep as far as it got (complete unless `max_new_points` stopped it).
+    pub sweep: CostSweep,
+    /// Points measured by this run.
+    pub measured: usize,
+    /// Points read back from an earlier run.
+    pub kept: usize,
+    /// Whether every point is measured.
+    pub complete: bool,
+}
+
+fn check_converged(sweep: &CostSweep) -> Result<(), CostError> {
+    let se = sweep.reference_standard_error();
+    if let Some((smallest, label)) = sweep.smallest_error()
+        && se >= 0.1 * smallest
+    {
+        let spp = sweep.references.first().map_or(0, |r| r.spp);
+        let needed = f64::from(spp) * (se / (0.1 * smallest)).powi(2) * 1.1;
+        let suggested = (needed.ceil().min(f64::from(MAX_SPP)) as u32).next_power_of_two();
+        return Err(CostError::NotConverged { standard_error: se, spp, smallest, label, suggested });
+    }
+    Ok(())
+}
+
+/// Runs (or resumes) the sweep of `request` on `renderer`; `progress` is told after each
+/// point.
+pub fn run_cost(
+    design: &Design,
+    renderer: &Renderer<'_>,
+    request: &CostRequest,
+    mut progress: impl FnMut(Progress),
+) -> Result<CostOutcome, CostError> {
+    let bad = |m: String| Err(CostError::Request(m));
+    let preset = design.preset(&request.preset)?;
+    let (material, speed, shutter, view) = parse_cell(design, &request.cell)?;
+    if request.repetitions == 0 || request.repetitions > 1000 {
+        return bad(format!("--repetitions must lie in 1..=1000, got {}", request.repetitions));
+    }
+    if request.max_spp == 0 || request.max_spp > MAX_SPP {
+        return bad(format!("--max-spp must lie in 1..={MAX_SPP}, got {}", request.max_spp));
+    }
+    if request.reference_spp < 2 || request.reference_spp > MAX_SPP {
+        return bad(format!("--reference-spp must lie in 2..={MAX_SPP}, got {}", request.reference_spp));
+    }
+    let frames: Vec<u32> = if request.frames.is_empty() { vec![preset.frames / 2] } else { request.frames.clone() };
+    if let Some(&f) = frames.iter().find(|&&f| f >= preset.frames) {
+        return bad(format!(
+            "--frames: frame {f} is outside the sequence: the preset `{}` has frames 0..={}",
+            preset.name,
+            preset.frames.saturating_sub(1)
+        ));
+    }
+    let methods: Vec<Method> = if request.methods.is_empty() { Method::ALL.to_vec() } else { request.methods.clone() };
+    if let Some(m) = methods.iter().find(|m| !crate::method::is_available(**m)) {
+        return bad(format!("--methods: `{m}` is not implemented in this build"));
+    }
+    let tag = design.method_tags().first().copied();
+    let id = StimulusId { material, speed, shutter, samples: 1, method: tag, view };
+    let cell = format!("M{material}-S{speed}-T{shutter}{}", if view == View::Stereo { "-stereo" } else { "" });
+    let identity = Identity {
+        format: COST_FORMAT.to_owned(),
+        design_sha256: design.sha256.clone(),
+        preset: preset.name.clone(),
+        cell: cell.clone(),
+        stereo: view == View::Stereo,
+        reference_spp: request.reference_spp,
+    };
+    std::fs::create_dir_all(&request.out).map_err(|e| file_error(&request.out, e))?;
+    let identity_path = request.out.join("cost-request.json");
+    if identity_path.exists() {
+        let there: Identity =
+            serde_json::from_slice(&std::fs::read(&identity_path).map_err(|e| file_error(&identity_path, e))?)
+                .map_err(|e| file_error(&identity_path, e))?;
+        if there != identity {
+            let fields = [
+                ("design_sha256", there.design_sha256 != identity.design_sha256),
+                ("preset", there.preset != identity.preset),
+                ("--id", there.cell != identity.cell),
+                ("--reference-spp", there.reference_spp != identity.reference_spp),
+                ("format", there.format != identity.format),
+            ];
+            let differ: Vec<&str> = fields.iter().filter(|(_, d)| *d).map(|(n, _)| *n).collect();
+            return bad(format!(
+                "{} holds a cost sweep of another request ({} differ: there {} {} {} spp); choose another --out",
+                request.out.display(),
+                differ.join(", "),
+                there.preset,
+                there.cell,
+                there.reference_spp
+            ));
+        }
+    } else {
+        write(&identity_path, &serde_json::to_vec_pretty(&identity).map_err(|e| file_error(&identity_path, e))?)?;
+    }
+    let ctx = Context {
+        design,
+        renderer,
+        ppd: design.pixels_per_degree(preset.width),
+        eyes: if view == View::Stereo { 2 } else { 1 },
+        preset: preset.clone(),
+        id,
+        out: request.out.clone(),
+    };
+    let settings: Vec<(Method, Vec<Setting>)> =
+        methods.iter().map(|&m| (m, sweep_settings(m, &preset, request.max_spp))).collect();
+    // Every method's finest setting first (repetition 0 of the first frame): the reference
+    // is checked against them before the rest is swept.
+    let mut order: Vec<(u32, Setting, u32, bool)> = Vec::new();
+    for (_, s) in &settings {
+        if let Some(finest) = s.last() {
+            order.push((frames[0], finest.clone(), 0, true));
+        }
+    }
+    let first_check = order.len();
+    for &frame in &frames {
+        for (_, s) in &settings {
+            for (i, setting) in s.iter().enumerate() {
+                for rep in 0..request.repetitions {
+                    let map = frame == frames[0] && rep == 0 && (i == 0 || i + 1 == s.len());
+                    let item = (frame, setting.clone(), rep, map);
+                    if !order.iter().any(|o| o.0 == item.0 && o.1 == item.1 && o.2 == item.2) {
+                        order.push(item);
+                    }
+                }
+            }
+        }
+    }
+    let mut sweep = CostSweep {
+        format: COST_FORMAT.to_owned(),
+        design: design.name().to_owned(),
+        design_sha256: design.sha256.clone(),
+        preset: preset.name.clone(),
+        cell,
+        stereo: view == View::Stereo,
+        frames: frames.clone(),
+        width: preset.width,
+        height: preset.height,
+        pixels_per_degree: ctx.ppd,
+        repetitions: request.repetitions,
+        levels: preset.samples_per_pixel.iter().enumerate().map(|(i, &s)| (format!("A{}", i + 1), s)).collect(),
+        device: renderer.device_name(),
+        references: Vec::new(),
+        points: Vec::new(),
+    };
+    let mut references = std::collections::BTreeMap::new();
+    for &frame in &frames {
+        let r = ctx.reference(frame, request.reference_spp)?;
+        sweep.references.push(r.record.clone());
+        references.insert(frame, r);
+    }
+    let total = order.len();
+    let (mut measured, mut kept) = (0, 0);
+    progress(Progress { done: 0, total, measured: 0 });
+    for (i, (frame, setting, rep, map)) in order.iter().enumerate() {
+        if request.max_new_points.is_some_and(|m| measured >= m) {
+            return Ok(CostOutcome { sweep, measured, kept, complete: false });
+        }
+        let (point, new) = ctx.point(setting, *frame, *rep, &references[frame], *map)?;
+        if new {
+            measured += 1;
+        } else {
+            kept += 1;
+        }
+        sweep.points.push(point);
+        progress(Progress { done: i + 1, total, measured });
+        if i + 1 == first_check {
+            check_converged(&sweep)?;
+        }
+    }
+    // The table in sweep order (the finest settings were measured first).
+    let position = |p: &CostPoint| {
+        settings
+            .iter()
+            .flat_map(|(_, s)| s.iter())
+            .position(|s| s.spec.kind == p.method && s.value == p.value && s.input_spp == p.input_spp)
+            .unwrap_or(usize::MAX)
+    };
+    sweep.points.sort_by_key(|p| (position(p), p.frame, p.repetition));
+    check_converged(&sweep)?;
+    Ok(CostOutcome { sweep, measured, kept, complete: true })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn preset(levels: Vec<u32>) -> Preset {
+        Preset { name: "p".into(), width: 8, height: 4, frames: 2, first_frame: 0, samples_per_pixel: levels }
+    }
+
+    #[test]
+    fn settings_cover_each_knob_coarsest_first() {
+        let p = preset(vec![1, 4, 8, 12, 16]);
+        let spp: Vec<u32> = sweep_settings(Method::Tracer, &p, 16).iter().map(|s| s.value).collect();
+        assert_eq!(spp, vec![1, 2, 4, 8, 12, 16]);
+        let spp: Vec<u32> = sweep_settings(Method::Tracer, &p, 1024).iter().map(|s| s.value).collect();
+        assert_eq!(spp.len(), 12);
+        let accum = sweep_settings(Method::Accum, &p, 16);
+        assert_eq!(accum.iter().map(|s| s.value).collect::<Vec<_>>(), vec![1, 2, 4]);
+        assert_eq!(work_units(&accum[2], 10), 160);
+        let guertin = sweep_settings(Method::Guertin, &p, 8);
+        assert_eq!(guertin.len(), 3 * FILTER_TAPS.len());
+        assert_eq!((guertin[0].input_spp, guertin[0].value, guertin[0].spec.taps), (1, 3, Some(3)));
+        let analytic = sweep_settings(Method::Analytic, &p, 16);
+        assert_eq!(analytic.last().unwrap().spec.intervals, Some(64));
+        assert_eq!(analytic[0].input_spp, 16);
+    }
+}

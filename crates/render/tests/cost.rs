@@ -1,0 +1,196 @@
+//! The cost sweep (`render::cost`) on the study's scene shrunk to 64 x 36 pixels (a `tiny`
+//! preset added to the shipped design): the tracer's error falls as 1/sqrt(spp), each
+//! method's finest setting approaches the reference or its bias floor, a stopped sweep
+//! resumes to the same table, and bad requests are clear errors. CPU only.
+
+use std::path::{Path, PathBuf};
+
+use render::cost::{CostError, CostRequest, run_cost};
+use render::env::EnvironmentMap;
+use render::{DeviceChoice, Renderer};
+use study::Method;
+use study::cost::CostSweep;
+use study::design::Design;
+
+/// The shipped design with a `tiny` preset: 64 x 36 pixels, two frames with the sphere in
+/// view (timeline 21 and 22, as the quick preset's frames 4 and 5).
+fn tiny_design(dir: &Path) -> Design {
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml");
+    let text = std::fs::read_to_string(shipped).unwrap()
+        + "\n[presets.tiny]\nwidth = 64\nheight = 36\nframes = 2\nfirst_frame = 21\nsamples_per_pixel = [1, 2, 4, 8, 16]\n";
+    let path = dir.join("tiny.toml");
+    std::fs::write(&path, &text).unwrap();
+    Design::load(&path).unwrap()
+}
+
+fn env(design: &Design) -> EnvironmentMap {
+    let id = design.ids(study::design::Views::Mono)[0];
+    let scene = design.frame_scene_with(&design.preset("tiny").unwrap(), &id, 0).unwrap();
+    EnvironmentMap::from_lighting(&scene.lighting).unwrap()
+}
+
+fn request(out: PathBuf, methods: Vec<Method>, max_spp: u32, repetitions: u32, reference_spp: u32) -> CostRequest {
+    CostRequest {
+        preset: "tiny".into(),
+        cell: "M3-S3-T5".into(),
+        frames: vec![0],
+        methods,
+        reference_spp,
+        max_spp,
+        repetitions,
+        out,
+        max_new_points: None,
+    }
+}
+
+fn sweep(design: &Design, env: &EnvironmentMap, req: &CostRequest) -> CostSweep {
+    let renderer = Renderer::open(DeviceChoice::Cpu, env).unwrap();
+    let outcome = run_cost(design, &renderer, req, |_| {}).unwrap();
+    assert!(outcome.complete);
+    outcome.sweep
+}
+
+#[test]
+fn the_tracer_error_falls_as_one_over_sqrt_spp_and_every_finest_setting_approaches_its_floor() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = tiny_design(dir.path());
+    let env = env(&design);
+    let methods = vec![Method::Tracer, Method::Accum, Method::Mcguire, Method::Guertin, Method::Analytic];
+    let s = sweep(&design, &env, &request(dir.path().join("out"), methods, 16, 4, 8192));
+    let rows = s.rows();
+    let tracer: Vec<_> = rows.iter().filter(|r| r.method == Method::Tracer).collect();
+    assert_eq!(tracer.iter().map(|r| r.value).collect::<Vec<_>>(), vec![1, 2, 4, 8, 16]);
+    // Slope of log(RMSE) against log(spp), least squares over the repetitions' medians, with
+    // a tolerance of three standard errors from the repetitions' scatter of log(RMSE) (the
+    // median of R values has about 1.57 sigma^2 / R variance). Independent Monte Carlo
+    // gives -1/2; the tracer's Owen-scrambled Sobol samples stratify the pixel area and the
+    // shutter, so its error must fall at least that fast, and not faster than the -1 of a
+    // stratified estimator of a discontinuous integrand (edges, the sphere's silhouette).
+    let xs: Vec<f64> = tracer.iter().map(|r| f64::from(r.value).ln()).collect();
+    let ys: Vec<f64> = tracer.iter().map(|r| r.rmse.median.ln()).collect();
+    let n = xs.len() as f64;
+    let (mx, my) = (xs.iter().sum::<f64>() / n, ys.iter().sum::<f64>() / n);
+    let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
+    let slope = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum::<f64>() / sxx;
+    let log_sd: Vec<f64> = tracer
+        .iter()
+        .map(|r| {
+            let pts: Vec<f64> = s
+                .points
+                .iter()
+                .filter(|p| p.method == Method::Tracer && p.value == r.value)
+                .map(|p| p.rmse.ln())
+                .collect();
+            study::stats::Summary::of(&pts).sample_sd()
+        })
+        .collect();
+    let var_slope = xs.iter().zip(&log_sd).map(|(x, sd)| ((x - mx) / sxx).powi(2) * sd * sd / 4.0 * 1.57).sum::<f64>();
+    let tolerance = 3.0 * var_slope.sqrt();
+    assert!(slope < -0.5 + tolerance, "slope {slope}, tolerance {tolerance}, sd {log_sd:?}");
+    assert!(slope > -1.0 - tolerance, "slope {slope}, tolerance {tolerance}, sd {log_sd:?}");
+    // Against the Monte Carlo rate: every doubling lowers the error by at least 1/sqrt(2)
+    // (within the tolerance), and the table's own fit reports the same exponent.
+    assert!((s.tracer_exponent().unwrap() - slope).abs() < 1e-9);
+    // Each doubling of the samples lowers the error.
+    assert!(
+        tracer.windows(2).all(|w| {
+            let expected = (f64::from(w[0].value) / f64::from(w[1].value)).sqrt();
+            w[1].rmse.median / w[0].rmse.median < expected * (1.0 + tolerance)
+        }),
+        "{tracer:?}"
+    );
+    // The reference is converged: its standard error is below a tenth of the finest error.
+    let finest = tracer.last().unwrap();
+    assert!(s.reference_standard_error() < 0.1 * finest.rmse.median);
+    // FLIP falls with the samples too.
+    assert!(finest.flip.median < tracer[0].flip.median);
+
+    // Accumulation buffer (centred instants, 4 spp each): more instants approach the
+    // reference; at 16 samples in all it is within 3x the tracer's error at 16 spp (its
+    // instants are not stratified across the frame and its time is quantised).
+    let accum: Vec<_> = rows.iter().filter(|r| r.method == Method::Accum).collect();
+    assert_eq!(accum.iter().map(|r| r.value).collect::<Vec<_>>(), vec![1, 2, 4]);
+    assert!(accum.windows(2).all(|w| w[1].rmse.median < w[0].rmse.median), "{accum:?}");
+    assert!(accum[2].rmse.median < 3.0 * finest.rmse.median, "{} vs {}", accum[2].rmse.median, finest.rmse.median);
+    // Filters: at the highest input level their error is the G-buffer's noise plus a bias
+    // floor that more taps do not remove: the finest taps stay within 2x the tracer's error
+    // at the same input samples and above 0.5x of it.
+    for m in [Method::Mcguire, Method::Guertin] {
+        let top: Vec<_> = rows.iter().filter(|r| r.method == m && r.input_spp == 16).collect();
+        assert_eq!(top.len(), render::cost::FILTER_TAPS.len());
+        let e = top.last().unwrap().rmse.median;
+        assert!(e < 2.0 * finest.rmse.median && e > 0.5 * finest.rmse.median, "{m}: {e} vs {}", finest.rmse.median);
+    }
+    // Analytic rasterizer: its bias floor (tessellation, one shading per interval) is what
+    // the largest budget reaches; the budget past 16 intervals changes it by under 5 %.
+    let analytic: Vec<_> = rows.iter().filter(|r| r.method == Method::Analytic).collect();
+    assert_eq!(analytic.len(), 5);
+    let (a16, a64) = (analytic[2].rmse.median, analytic[4].rmse.median);
+    assert!((a64 - a16).abs() < 0.05 * a16, "{a16} vs {a64}");
+    assert!(a64 < 5.0 * tracer[0].rmse.median);
+    // FLIP maps of the coarsest and finest settings beside the frames.
+    let maps = dir.path().join("out/maps");
+    assert!(maps.join("tracer-spp16-in16-f0000-r0-flip.png").exists());
+    assert!(maps.join("tracer-spp1-in1-f0000-r0.png").exists());
+}
+
+#[test]
+fn a_stopped_sweep_resumes_to_the_same_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = tiny_design(dir.path());
+    let env = env(&design);
+    let renderer = Renderer::open(DeviceChoice::Cpu, &env).unwrap();
+    let methods = vec![Method::Tracer, Method::Accum];
+    let whole = sweep(&design, &env, &request(dir.path().join("a"), methods.clone(), 4, 2, 4096));
+    let mut req = request(dir.path().join("b"), methods, 4, 2, 4096);
+    req.max_new_points = Some(3);
+    let part = run_cost(&design, &renderer, &req, |_| {}).unwrap();
+    assert_eq!((part.measured, part.complete), (3, false));
+    req.max_new_points = None;
+    let mut seen = Vec::new();
+    let resumed = run_cost(&design, &renderer, &req, |p| seen.push(p)).unwrap();
+    assert!(resumed.complete);
+    assert_eq!(resumed.kept, 3);
+    assert_eq!(resumed.measured + 3, whole.points.len());
+    assert_eq!(seen.last().unwrap().done, whole.points.len());
+    // The points kept are the first run's, times included.
+    for p in &part.sweep.points {
+        assert!(resumed.sweep.points.contains(p), "{p:?}");
+    }
+    // The errors are the uninterrupted sweep's, point by point (the same seeds).
+    let errors = |s: &CostSweep| -> Vec<(String, f64, f64, f64)> {
+        s.points.iter().map(|p| (p.key(), p.rmse, p.rmse_linear, p.flip)).collect()
+    };
+    assert_eq!(errors(&resumed.sweep), errors(&whole));
+    // Once complete, a rerun measures nothing and gives the same table.
+    let again = run_cost(&design, &renderer, &req, |_| {}).unwrap();
+    assert_eq!((again.measured, again.kept), (0, whole.points.len()));
+    assert_eq!(again.sweep.csv(), resumed.sweep.csv());
+    // Another request in the same folder is refused, naming what differs.
+    req.reference_spp = 8192;
+    let e = run_cost(&design, &renderer, &req, |_| {}).unwrap_err();
+    assert!(e.is_bad_input() && e.to_string().contains("--reference-spp"), "{e}");
+}
+
+#[test]
+fn bad_requests_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = tiny_design(dir.path());
+    let env = env(&design);
+    let renderer = Renderer::open(DeviceChoice::Cpu, &env).unwrap();
+    let check = |req: CostRequest, needle: &str| {
+        let e: CostError = run_cost(&design, &renderer, &req, |_| {}).unwrap_err();
+        assert!(e.is_bad_input() && e.to_string().contains(needle), "{e}");
+    };
+    let base = || request(dir.path().join("x"), vec![Method::Tracer], 4, 1, 4096);
+    check(CostRequest { cell: "M9-S3-T5".into(), ..base() }, "M9 is not a level of the design (it has M1..M3)");
+    check(CostRequest { cell: "M3-S3".into(), ..base() }, "--id `M3-S3`");
+    check(CostRequest { frames: vec![5], ..base() }, "frame 5 is outside the sequence");
+    check(CostRequest { preset: "huge".into(), ..base() }, "huge");
+    check(CostRequest { repetitions: 0, ..base() }, "--repetitions");
+    // A 16-spp reference judging 4 spp: its noise is half the error it judges.
+    check(
+        CostRequest { reference_spp: 16, out: dir.path().join("y"), ..base() },
+        "the reference is not converged enough",
+    );
+}
