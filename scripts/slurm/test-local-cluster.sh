@@ -102,7 +102,8 @@ echo "cluster up: $(sinfo -h -N -o '%N %T %c CPUs')"
 # The array and the merge job, as a cluster user would submit them. Each task gets one
 # CPU, so the node runs as many tasks at once as it has CPUs.
 export BLURLAB_OUT="$D/set" BLURLAB_DESIGN="$repo/stimuli/navarro2011.toml" BLURLAB_DEVICE=cpu
-BLURLAB_ARGS="$(printf '%q ' "${render_args[@]}")"
+BLURLAB_ARGS=""
+if [ ${#render_args[@]} -gt 0 ]; then BLURLAB_ARGS="$(printf '%q ' "${render_args[@]}")"; fi
 export BLURLAB_ARGS
 cd "$D"
 t0=$(date +%s.%N)
@@ -114,6 +115,7 @@ while [ -n "$(squeue -h)" ]; do sleep 0.5; done
 t1=$(date +%s.%N)
 state=$(scontrol show job "$merge_id" | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p')
 for f in "$D"/blurlab-render-"$array_id"_*.out "$D"/blurlab-merge-"$merge_id".out; do
+  [ -f "$f" ] || { echo "--- $(basename "$f"): no log"; continue; }
   echo "--- $(basename "$f"): $(grep -c 'rendered\|verified' "$f" || true) progress lines; last:"
   tail -n 1 "$f"
 done
