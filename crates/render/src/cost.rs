@@ -6,8 +6,9 @@
 //!   independent halves with seeds mixed apart from every point's (as in `quality`); half
 //!   the RMS difference of the halves is its own standard error on display values. The sweep
 //!   refuses a reference whose standard error is not below a tenth of the smallest median
-//!   error it judges (checked on each method's finest setting before the rest is swept, and
-//!   on the whole table at the end).
+//!   error it judges: before rendering, when it has fewer than a hundred times the finest
+//!   tracer's samples; then measured, on each method's finest setting before the rest is
+//!   swept, and on the whole table at the end.
 //! - Knobs ([`sweep_settings`]): tracer samples per pixel (powers of two up to `max_spp`
 //!   and the preset's sampling levels); accumulation-buffer instants (centred, 4 samples per
 //!   instant, up to `max_spp` samples in all); McGuire's and Guertin's taps at each of the
@@ -460,6 +461,20 @@ pub fn run_cost(
     }
     if request.reference_spp < 2 || request.reference_spp > MAX_SPP {
         return bad(format!("--reference-spp must lie in 2..={MAX_SPP}, got {}", request.reference_spp));
+    }
+    // The reference's noise relative to the finest tracer's error is about
+    // sqrt(max_spp / reference_spp) (both fall alike with the samples): below a tenth of it
+    // needs a hundred times the samples. Refused before anything is rendered.
+    let sampled =
+        request.methods.is_empty() || request.methods.iter().any(|m| matches!(m, Method::Tracer | Method::Accum));
+    if sampled && u64::from(request.reference_spp) < 100 * u64::from(request.max_spp) {
+        let needed = (100 * request.max_spp).min(MAX_SPP).next_power_of_two();
+        return bad(format!(
+            "the reference is not converged enough for this sweep: a {}-spp reference's standard error is about {:.2} of the {}-spp tracer's error, and must be below 0.1; use --reference-spp {needed} or more, or a smaller --max-spp",
+            request.reference_spp,
+            (f64::from(request.max_spp) / f64::from(request.reference_spp)).sqrt(),
+            request.max_spp
+        ));
     }
     let frames: Vec<u32> = if request.frames.is_empty() { vec![preset.frames / 2] } else { request.frames.clone() };
     if let Some(&f) = frames.iter().find(|&&f| f >= preset.frames) {

@@ -188,9 +188,21 @@ fn bad_requests_are_clear_errors() {
     check(CostRequest { frames: vec![5], ..base() }, "frame 5 is outside the sequence");
     check(CostRequest { preset: "huge".into(), ..base() }, "huge");
     check(CostRequest { repetitions: 0, ..base() }, "--repetitions");
-    // A 16-spp reference judging 4 spp: its noise is half the error it judges.
+    // A 16-spp reference judging 4 spp: its noise is half the error it judges (refused
+    // before rendering).
     check(
         CostRequest { reference_spp: 16, out: dir.path().join("y"), ..base() },
-        "the reference is not converged enough",
+        "the reference is not converged enough for this sweep: a 16-spp reference's standard error is about 0.50",
     );
+    // A filter alone (no tracer samples to compare before rendering) at a 1-spp input,
+    // judged by a 2-spp reference: the measured standard error, on its finest setting, is
+    // refused.
+    let filters = CostRequest {
+        methods: vec![Method::Mcguire],
+        max_spp: 1,
+        reference_spp: 2,
+        out: dir.path().join("z"),
+        ..base()
+    };
+    check(filters, "the reference is not converged enough: its standard error");
 }

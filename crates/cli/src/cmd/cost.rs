@@ -33,8 +33,8 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     pub methods: Vec<String>,
     /// Samples per pixel of the reference (its standard error must be below a tenth of the
-    /// smallest error judged).
-    #[arg(long, default_value_t = 16384)]
+    /// smallest error judged: at least 100 times --max-spp).
+    #[arg(long, default_value_t = 131072)]
     pub reference_spp: u32,
     /// The tracer's largest samples per pixel (powers of two from 1, and the preset's levels).
     #[arg(long, default_value_t = 1024)]
