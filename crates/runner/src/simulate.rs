@@ -119,6 +119,18 @@ pub enum ObserverModel {
     },
 }
 
+/// A `sigma=S` parameter: finite and positive (or zero, where `zero_allowed`).
+fn parse_sigma(v: &str, zero_allowed: bool) -> Result<f64, String> {
+    let ok = |s: &f64| s.is_finite() && (*s > 0.0 || (zero_allowed && *s == 0.0));
+    v.parse().ok().filter(ok).ok_or_else(|| {
+        if zero_allowed {
+            format!("sigma `{v}` is not a number >= 0")
+        } else {
+            format!("sigma `{v}` is not a positive number")
+        }
+    })
+}
+
 impl FromStr for ObserverModel {
     type Err = RunnerError;
     fn from_str(text: &str) -> Result<Self, RunnerError> {
@@ -130,13 +142,7 @@ impl FromStr for ObserverModel {
                 let mut sigma = crate::flip_observer::DEFAULT_SIGMA;
                 for param in params.split(',').filter(|p| !p.is_empty()) {
                     match param.split_once('=') {
-                        Some(("sigma", v)) => {
-                            sigma = v
-                                .parse()
-                                .ok()
-                                .filter(|s: &f64| s.is_finite() && *s >= 0.0)
-                                .ok_or_else(|| bad(format!("sigma `{v}` is not a number >= 0")))?;
-                        }
+                        Some(("sigma", v)) => sigma = parse_sigma(v, true).map_err(bad)?,
                         _ => return Err(bad(format!("unknown parameter `{param}` (expected sigma=S)"))),
                     }
                 }
@@ -147,13 +153,7 @@ impl FromStr for ObserverModel {
                 let mut quality = Quality::Rule;
                 for param in params.split(',').filter(|p| !p.is_empty()) {
                     match param.split_once('=') {
-                        Some(("sigma", v)) => {
-                            sigma = v
-                                .parse()
-                                .ok()
-                                .filter(|s: &f64| s.is_finite() && *s > 0.0)
-                                .ok_or_else(|| bad(format!("sigma `{v}` is not a positive number")))?;
-                        }
+                        Some(("sigma", v)) => sigma = parse_sigma(v, false).map_err(bad)?,
                         Some(("file", v)) => quality = Quality::read(Path::new(v))?,
                         _ => return Err(bad(format!("unknown parameter `{param}` (expected sigma=S or file=PATH)"))),
                     }
