@@ -640,15 +640,29 @@ pub(crate) fn manifest_bytes(manifest: &SequenceManifest) -> Vec<u8> {
 
 /// Removes temporary files a killed write left behind (`.NAME.tmp-PID`).
 pub(crate) fn remove_temporaries(folder: &Path) {
+    remove_temporaries_of(folder, |_| true);
+}
+
+/// Removes the temporaries in `folder` whose target file name (`.NAME.tmp-PID` targets
+/// NAME) satisfies `owned`. Shards rendering other frames of the same sequence write into
+/// the same folder at the same time: each may only clear what its own frames left behind.
+pub(crate) fn remove_temporaries_of(folder: &Path, owned: impl Fn(&str) -> bool) {
     if let Ok(entries) = std::fs::read_dir(folder) {
         for entry in entries.flatten() {
             let name = entry.file_name();
             let name = name.to_string_lossy();
-            if name.starts_with('.') && name.contains(".tmp-") {
+            let target = name.strip_prefix('.').and_then(|rest| rest.rsplit_once(".tmp-")).map(|(target, _)| target);
+            if target.is_some_and(&owned) {
                 let _ = std::fs::remove_file(entry.path());
             }
         }
     }
+}
+
+/// The frame index a file name such as `frame-0042.png` holds.
+pub(crate) fn frame_index_of(name: &str) -> Option<u32> {
+    let digits = name.strip_prefix("frame-")?.split('.').next()?;
+    if digits.len() >= 4 && digits.bytes().all(|b| b.is_ascii_digit()) { digits.parse().ok() } else { None }
 }
 
 /// The lock file, in a sequence's folder, of the process rendering it (`study::lock`).
@@ -992,6 +1006,28 @@ mod tests {
     fn design() -> Design {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml");
         Design::load(&path).unwrap()
+    }
+
+    #[test]
+    fn temporaries_are_cleared_only_for_the_frames_a_process_owns() {
+        // Two shards render frames 0-2 and 3-5 of one sequence into one folder at once:
+        // clearing its own leftovers, one must not delete the other's write in progress.
+        let dir = tempfile::tempdir().unwrap();
+        let names = [".frame-0002.png.tmp-11", ".frame-0003.png.tmp-12", ".manifest.json.tmp-12", "frame-0001.png"];
+        for name in names {
+            std::fs::write(dir.path().join(name), b"x").unwrap();
+        }
+        remove_temporaries_of(dir.path(), |target| frame_index_of(target).is_some_and(|f| (3..6).contains(&f)));
+        let left = |name: &str| dir.path().join(name).exists();
+        assert!(left(".frame-0002.png.tmp-11") && left(".manifest.json.tmp-12") && left("frame-0001.png"));
+        assert!(!left(".frame-0003.png.tmp-12"));
+        assert_eq!(frame_index_of("frame-0042.exr"), Some(42));
+        assert_eq!(frame_index_of("frame-12345.png"), Some(12345));
+        for not_a_frame in ["frame-42.png", "frame-00a1.png", "manifest.json", "frames-0000-0002.json"] {
+            assert_eq!(frame_index_of(not_a_frame), None, "{not_a_frame}");
+        }
+        remove_temporaries(dir.path());
+        assert!(!left(".frame-0002.png.tmp-11") && !left(".manifest.json.tmp-12") && left("frame-0001.png"));
     }
 
     /// A disk that fills up after `room` successful writes.

@@ -49,8 +49,8 @@ use study::{Method, SOFTWARE_VERSION, StimulusId};
 use crate::device::Renderer;
 use crate::env::EnvironmentMap;
 use crate::set::{
-    AtomicWriter, Expected, FileWriter, Progress, ProgressMode, SetError, SetFolder, SetRequest, io_err,
-    manifest_bytes, remove_temporaries, render_stream, streams,
+    AtomicWriter, Expected, FileWriter, Progress, ProgressMode, SetError, SetFolder, SetRequest, frame_index_of,
+    io_err, manifest_bytes, remove_temporaries_of, render_stream, streams,
 };
 
 /// Format tag of `plan.json`.
@@ -423,7 +423,8 @@ pub fn render_shard_with(
                         Err(source) => return Err(SetError::Io { path, action: "cannot remove", source }),
                     }
                 }
-                remove_temporaries(&seq);
+                let frames = unit.frames();
+                remove_temporaries_of(&seq, |target| frame_index_of(target).is_some_and(|f| frames.contains(&f)));
             }
             folder.publish(writer)?;
             let bar = progress.sequence_bar(&lead, unit.end - unit.first);
@@ -464,7 +465,7 @@ pub fn render_shard_with(
         // this shard, or one that died on another host (whose locks are never judged stale).
         return Err(SetError::Incomplete {
             summary: format!(
-                "shard {shard}: {} of its units are locked by other processes and were not rendered; if those processes have ended (e.g. a preempted task on another node), remove their lock files and run the shard again with --resume",
+                "shard {shard}: {} of its units are locked by other processes and were not rendered; if those processes have ended (e.g. a task killed on another node and resubmitted as a new job; a requeued Slurm task takes over its own job's locks), remove their lock files and run the shard again with --resume",
                 report.left_to_others.len()
             ),
             lines: report.left_to_others.iter().map(|(unit, holder)| format!("{unit}: {holder}")).collect(),

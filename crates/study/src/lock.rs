@@ -11,6 +11,12 @@
 //!
 //! Taking over renames the stale file to a name unique to the taker, so two successors
 //! cannot both remove it: only the one whose rename moved the stale file proceeds.
+//!
+//! **Requeued cluster jobs.** Under Slurm the holder also records its job
+//! (`job=SLURM_JOB_ID restart=SLURM_RESTART_COUNT`). A requeued or preempted job restarts
+//! with the same job id and a higher restart count, on any node, and only after Slurm has
+//! ended the earlier run; so a lock of the same job with a lower restart count is stale on
+//! any host, and a requeued array task resumes without anyone removing its locks by hand.
 
 use std::fs::{File, OpenOptions};
 use std::io::{self, Read, Write};
@@ -25,6 +31,10 @@ pub struct Holder {
     pub pid: u32,
     /// When it took the lock (UTC, RFC 3339).
     pub started: String,
+    /// The cluster job it ran in (`SLURM_JOB_ID`; an array task has its own), if any.
+    pub job: Option<String>,
+    /// How often that job had been requeued when it took the lock (`SLURM_RESTART_COUNT`).
+    pub restart: u32,
 }
 
 impl Holder {
@@ -32,19 +42,50 @@ impl Holder {
         let mut host = None;
         let mut pid = None;
         let mut started = String::new();
+        let (mut job, mut restart) = (None, 0);
         for word in text.split_whitespace() {
             match word.split_once('=') {
                 Some(("host", v)) => host = Some(v.to_owned()),
                 Some(("pid", v)) => pid = v.parse().ok(),
                 Some(("started", v)) => started = v.to_owned(),
+                Some(("job", v)) => job = Some(v.to_owned()),
+                Some(("restart", v)) => restart = v.parse().unwrap_or(0),
                 _ => {}
             }
         }
-        Some(Holder { host: host?, pid: pid?, started })
+        Some(Holder { host: host?, pid: pid?, started, job, restart })
     }
 
     fn line(&self) -> String {
-        format!("host={} pid={} started={}\n", self.host, self.pid, self.started)
+        let mut line = format!("host={} pid={} started={}", self.host, self.pid, self.started);
+        if let Some(job) = &self.job {
+            line.push_str(&format!(" job={job} restart={}", self.restart));
+        }
+        line.push('\n');
+        line
+    }
+
+    /// This process: host, pid, now, and its Slurm job if it runs in one.
+    fn this_process() -> Holder {
+        let word = |name: &str| {
+            std::env::var(name)
+                .ok()
+                .map(|v| v.trim().to_owned())
+                .filter(|v| !v.is_empty() && !v.contains(char::is_whitespace) && !v.contains('='))
+        };
+        Holder {
+            host: host_name(),
+            pid: std::process::id(),
+            started: crate::response::utc_timestamp_now(),
+            job: word("SLURM_JOB_ID"),
+            restart: word("SLURM_RESTART_COUNT").and_then(|v| v.parse().ok()).unwrap_or(0),
+        }
+    }
+
+    /// Whether `self` is a later run of the requeued job that `earlier` ran in: then the
+    /// earlier run has ended, wherever it ran.
+    fn requeued_after(&self, earlier: &Holder) -> bool {
+        self.job.is_some() && self.job == earlier.job && self.restart > earlier.restart
     }
 }
 
@@ -53,6 +94,9 @@ impl std::fmt::Display for Holder {
         write!(f, "host {}, pid {}", self.host, self.pid)?;
         if !self.started.is_empty() {
             write!(f, ", started {}", self.started)?;
+        }
+        if let Some(job) = &self.job {
+            write!(f, ", Slurm job {job} (restart {})", self.restart)?;
         }
         Ok(())
     }
@@ -117,8 +161,11 @@ pub fn pid_alive(pid: u32) -> bool {
 impl LockFile {
     /// Takes the lock at `path`, taking over a stale one; refuses a live holder.
     pub fn acquire(path: &Path) -> Result<LockFile, LockError> {
+        Self::acquire_as(path, Holder::this_process())
+    }
+
+    fn acquire_as(path: &Path, me: Holder) -> Result<LockFile, LockError> {
         let io = |source| LockError::Io { path: path.to_owned(), source };
-        let me = Holder { host: host_name(), pid: std::process::id(), started: crate::response::utc_timestamp_now() };
         for _ in 0..100 {
             match OpenOptions::new().write(true).create_new(true).open(path) {
                 Ok(mut file) => {
@@ -155,7 +202,8 @@ impl LockFile {
                 }
             };
             let local = holder.host == me.host;
-            let stale = local && (!pid_alive(holder.pid) || (holder.pid != me.pid && file.try_lock().is_ok()));
+            let stale = me.requeued_after(&holder)
+                || (local && (!pid_alive(holder.pid) || (holder.pid != me.pid && file.try_lock().is_ok())));
             drop(file);
             if !stale {
                 return Err(LockError::Held { path: path.to_owned(), holder });
@@ -235,8 +283,31 @@ mod tests {
     }
 
     #[test]
+    fn a_requeued_slurm_job_takes_over_its_earlier_runs_lock_on_any_host() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.lock");
+        let run = |restart: u32| Holder { job: Some("4242".into()), restart, ..Holder::this_process() };
+        // The preempted first run, on another node (alive or not, it is never asked).
+        std::fs::write(&path, "host=node-7 pid=4294967295 started=x job=4242 restart=0\n").unwrap();
+        // Another job (another array task, or a new submission) must not take it over...
+        let other = Holder { job: Some("4243".into()), restart: 5, ..Holder::this_process() };
+        let e = LockFile::acquire_as(&path, other).unwrap_err().to_string();
+        assert!(e.contains("host node-7") && e.contains("Slurm job 4242 (restart 0)"), "{e}");
+        // ...nor a run of the same job that is not later (the same run on another node).
+        assert!(LockFile::acquire_as(&path, run(0)).is_err());
+        let taken = LockFile::acquire_as(&path, run(1)).unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), taken.holder.line());
+        // The requeued run holds it now; the earlier run's number cannot take it back.
+        assert!(LockFile::acquire_as(&path, run(0)).is_err());
+        drop(taken);
+        assert!(!path.exists());
+    }
+
+    #[test]
     fn holder_lines_round_trip() {
-        let h = Holder { host: "lab-3".into(), pid: 42, started: "2026-01-01T00:00:00Z".into() };
+        let h = Holder { host: "lab-3".into(), pid: 42, started: "2026-01-01T00:00:00Z".into(), job: None, restart: 0 };
+        assert_eq!(Holder::parse(&h.line()), Some(h.clone()));
+        let h = Holder { job: Some("981_3".into()), restart: 2, ..h };
         assert_eq!(Holder::parse(&h.line()), Some(h));
         assert_eq!(Holder::parse("garbage"), None);
     }
