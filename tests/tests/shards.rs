@@ -131,6 +131,53 @@ fn shards_as_separate_processes_reproduce_the_unsharded_set_byte_for_byte() {
 }
 
 #[test]
+fn the_eyes_of_a_stereo_sequence_rendered_by_different_shards_join_to_the_unsharded_png_and_exr() {
+    let dir = tempfile::tempdir().unwrap();
+    let design = tiny_design(dir.path());
+    let stereo = |out: &Path, extra: &[&str]| {
+        Command::new(blurlab())
+            .args(["stimuli", "render", "--design", design.to_str().unwrap(), "--preset", "tiny", "--exr"])
+            .args(["--only", "M3 S2 T4 A5 stereo", "--device", "cpu", "--progress", "lines"])
+            .args(["--out", out.to_str().unwrap()])
+            .args(extra)
+            .current_dir(repo_root())
+            .output()
+            .unwrap()
+    };
+    let whole = dir.path().join("whole");
+    let o = stereo(&whole, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Two shards, one sequence: each renders one eye of every frame (the eyes cost the same).
+    let o = stereo(&dir.path().join("unused"), &["--shard", "0/2", "--plan"]);
+    let plan = stdout(&o);
+    assert!(plan.contains("left eye frames") && plan.contains("right eye frames"), "{plan}");
+    let folders: Vec<PathBuf> = (0..2).map(|k| dir.path().join(format!("shard-{k}"))).collect();
+    for (k, f) in folders.iter().enumerate() {
+        let o = stereo(f, &["--shard", &format!("{k}/2")]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let merged = dir.path().join("merged");
+    let mut args = vec!["stimuli", "merge", "--progress", "lines", merged.to_str().unwrap()];
+    args.extend(folders.iter().map(|f| f.to_str().unwrap()));
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let frames = |set: &Path| {
+        let seq = set.join("M3-S2-T4-A5-stereo");
+        let mut names: Vec<String> = std::fs::read_dir(&seq)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with("frame-"))
+            .collect();
+        names.sort();
+        names.into_iter().map(|n| (std::fs::read(seq.join(&n)).unwrap(), n)).collect::<Vec<_>>()
+    };
+    let (a, b) = (frames(&whole), frames(&merged));
+    assert_eq!(a.len(), 12, "6 PNG and 6 EXR frames");
+    assert!(a == b, "the joined frames are the unsharded bytes");
+}
+
+#[test]
 fn merge_names_missing_duplicated_and_damaged_units_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let design = tiny_design(dir.path());
@@ -174,16 +221,13 @@ fn merge_names_missing_duplicated_and_damaged_units_and_writes_nothing() {
         .find(|p| p.join("units").is_dir() && std::fs::read_dir(p.join("units")).unwrap().next().is_some())
         .unwrap();
     let record = std::fs::read_dir(victim.join("units")).unwrap().flatten().next().unwrap().path();
-    let name = record.file_name().unwrap().to_str().unwrap().to_owned();
-    let first: u32 = name["frames-".len().."frames-".len() + 4].parse().unwrap();
-    std::fs::write(victim.join(format!("frame-{first:04}.png")), b"damaged").unwrap();
+    let record: serde_json::Value = serde_json::from_slice(&std::fs::read(&record).unwrap()).unwrap();
+    // A frame of the sequence, or of one eye (`eyes/left/frame-0003.png`) for an eye unit.
+    let png = record["sequence"]["frames"][0]["png"].as_str().unwrap().to_owned();
+    std::fs::write(victim.join(&png), b"damaged").unwrap();
     let o = merge(&out, &[&folders[0], &folders[1], &folders[2]]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("damaged: ") && stderr(&o).contains(&format!("frame-{first:04}.png")),
-        "{}",
-        stderr(&o)
-    );
+    assert!(stderr(&o).contains("damaged: ") && stderr(&o).contains(&png), "{}", stderr(&o));
 
     // Shards of another shard count or preset are refused by name.
     let other = dir.path().join("other-n");

@@ -128,14 +128,48 @@ pub fn to_srgb8(image: &LinearImage, exposure: &Exposure) -> Vec<u8> {
 /// # Panics
 /// Only if the image's pixel count disagrees with its dimensions (a programming error).
 pub fn encode_png_srgb(image: &LinearImage, exposure: &Exposure) -> Vec<u8> {
-    use image::ImageEncoder;
     image.check().expect("LinearImage dimensions");
-    let bytes = to_srgb8(image, exposure);
+    encode_png_rgb8(image.width, image.height, &to_srgb8(image, exposure))
+}
+
+/// Encodes 8-bit RGB rows as a PNG, with the settings of [`encode_png_srgb`]: the display
+/// mapping is per pixel, so frames joined from their eyes' 8-bit halves encode to the bytes
+/// of the frame rendered whole.
+///
+/// # Panics
+/// Only if `rgb` does not hold `width * height` pixels (a programming error).
+pub fn encode_png_rgb8(width: u32, height: u32, rgb: &[u8]) -> Vec<u8> {
+    use image::ImageEncoder;
     let mut out = Vec::new();
     image::codecs::png::PngEncoder::new(&mut out)
-        .write_image(&bytes, image.width, image.height, image::ExtendedColorType::Rgb8)
+        .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
         .expect("PNG encoding into memory cannot fail for a consistent image");
     out
+}
+
+/// Decodes an 8-bit RGB PNG (as [`encode_png_rgb8`] writes) into its size and rows.
+pub fn decode_png_rgb8(bytes: &[u8]) -> Result<(u32, u32, Vec<u8>), IoError> {
+    let decoded = image::load_from_memory_with_format(bytes, image::ImageFormat::Png)
+        .map_err(|e| IoError::Image(e.to_string()))?;
+    let rgb = decoded.to_rgb8();
+    Ok((rgb.width(), rgb.height(), rgb.into_raw()))
+}
+
+/// Joins 8-bit RGB images of equal height left to right.
+pub fn join_rgb8_side_by_side(parts: &[(u32, u32, Vec<u8>)]) -> Result<(u32, u32, Vec<u8>), IoError> {
+    let height = parts.first().map_or(0, |p| p.1);
+    if let Some(p) = parts.iter().find(|p| p.1 != height || p.2.len() != 3 * (p.0 * p.1) as usize) {
+        return Err(IoError::Dimensions { width: p.0, height: p.1, len: p.2.len() / 3 });
+    }
+    let width: u32 = parts.iter().map(|p| p.0).sum();
+    let mut out = Vec::with_capacity(3 * (width * height) as usize);
+    for y in 0..height as usize {
+        for (w, _, rows) in parts {
+            let row = 3 * *w as usize;
+            out.extend_from_slice(&rows[y * row..(y + 1) * row]);
+        }
+    }
+    Ok((width, height, out))
 }
 
 /// Encodes linear radiance as a 32-bit float RGB EXR file.
@@ -221,6 +255,23 @@ mod tests {
             }
         }
         img
+    }
+
+    #[test]
+    fn eyes_joined_as_8_bit_png_encode_to_the_bytes_of_the_frame_composed_whole() {
+        let exposure = Exposure { stops: 0.5, tone_map: ToneMap::Clamp };
+        let mut right = gradient(5, 3);
+        right.set(4, 2, [0.3, f32::NAN, 7.0]);
+        let left = gradient(7, 3);
+        let whole = encode_png_srgb(&compose_side_by_side(&[left.clone(), right.clone()]), &exposure);
+        let halves: Vec<_> =
+            [left, right].iter().map(|eye| decode_png_rgb8(&encode_png_srgb(eye, &exposure)).unwrap()).collect();
+        let (w, h, rows) = join_rgb8_side_by_side(&halves).unwrap();
+        assert_eq!((w, h), (12, 3));
+        assert_eq!(encode_png_rgb8(w, h, &rows), whole);
+        let short = (2, 2, vec![0; 12]);
+        assert!(join_rgb8_side_by_side(&[halves[0].clone(), short]).is_err());
+        assert!(decode_png_rgb8(b"not a png").is_err());
     }
 
     /// Fuzzing of the environment-map decoders (`BLURLAB_FUZZ_CASES` cases, default 64):

@@ -27,7 +27,7 @@ use study::fsio::{sha256_file, sha256_hex, write_atomic};
 use study::manifest::{
     FrameRecord, INDEX_FORMAT, IndexEntry, ManifestError, SEQUENCE_FORMAT, SequenceManifest, SetIndex,
 };
-use study::{Method, SOFTWARE_VERSION, StimulusId};
+use study::{Eye, Method, SOFTWARE_VERSION, StimulusId};
 
 use study::manifest::Sampling;
 use study::scene::FrameScene;
@@ -392,7 +392,7 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
                 remove_temporaries(&seq);
             }
             let bar = progress.sequence_bar(&todo[todo.len() - 1], preset.frames);
-            let manifests = render_stream(request, &renderer, &todo, 0..preset.frames, writer, |cost| {
+            let manifests = render_stream(request, &renderer, &todo, 0..preset.frames, None, writer, |cost| {
                 progress.advance(cost);
                 if let Some(b) = &bar {
                     b.inc(1);
@@ -484,7 +484,9 @@ fn write_frame(
 
 /// Renders frames `frames` of the sequences `members` (one, or the sample levels of one
 /// nested stream) frame by frame and writes them; returns their manifests (listing those
-/// frames), in order. On a GPU the next
+/// frames), in order. With `eye`, only that camera of a stereo pair is rendered (with the
+/// seed it has in the pair), into the sequence's [`eye_folder`], whose files the manifest
+/// names by their paths from the sequence folder. On a GPU the next
 /// frames are submitted before a frame is read back, and frames are encoded and written on
 /// the thread pool, so the GPU does not wait for the CPU.
 pub(crate) fn render_stream(
@@ -492,6 +494,7 @@ pub(crate) fn render_stream(
     renderer: &Renderer<'_>,
     members: &[StimulusId],
     frames: std::ops::Range<u32>,
+    eye: Option<Eye>,
     writer: &dyn FileWriter,
     mut on_frame: impl FnMut(u64),
 ) -> Result<Vec<SequenceManifest>, SetError> {
@@ -512,8 +515,24 @@ pub(crate) fn render_stream(
     let mut levels = spps.clone();
     levels.sort_unstable();
     levels.dedup();
-    let folders: Vec<PathBuf> = members.iter().map(|id| request.out.join(id.to_string())).collect();
-    let cost: u64 = members.iter().map(|id| frame_cost(preset, id)).sum();
+    let subfolder = eye.map(|e| PathBuf::from(EYES_DIR).join(eye_name(e)));
+    let folders: Vec<PathBuf> = members
+        .iter()
+        .map(|id| {
+            let seq = request.out.join(id.to_string());
+            subfolder.as_ref().map_or(seq.clone(), |sub| seq.join(sub))
+        })
+        .collect();
+    for folder in &folders {
+        std::fs::create_dir_all(folder).map_err(io_err(folder, "cannot create the folder"))?;
+    }
+    let in_sequence = |name: String| match &subfolder {
+        Some(sub) => format!("{}/{name}", sub.display()),
+        None => name,
+    };
+    // Progress counts the camera samples of the eyes rendered.
+    let share = if eye.is_some() { Eye::of_view(members[0].view).len() as u64 } else { 1 };
+    let cost: u64 = members.iter().map(|id| frame_cost(preset, id)).sum::<u64>() / share;
     let written: std::sync::Mutex<Vec<Written>> = std::sync::Mutex::new(Vec::new());
     let queued = std::sync::atomic::AtomicUsize::new(0);
     let mut size = (0, 0);
@@ -544,8 +563,11 @@ pub(crate) fn render_stream(
                     let extra = (wall * share, cpu * share, level.nonfinite_samples, level.gpu_seconds);
                     let image = level.image.clone();
                     let (folder, exposure, written) = (&folders[m], scene.exposure, &written);
+                    let in_sequence = &in_sequence;
                     let task = move || {
                         let record = write_frame(writer, folder, frame, &image, &exposure, exr).map(|r| FrameRecord {
+                            png: in_sequence(r.png),
+                            exr: r.exr.map(in_sequence),
                             wall_seconds: extra.0,
                             cpu_seconds: extra.1,
                             nonfinite_samples: extra.2,
@@ -580,6 +602,9 @@ pub(crate) fn render_stream(
         for frame in frames.clone() {
             let mut scene = design.frame_scene_with(preset, &stream_id, frame)?;
             scene.samples_per_pixel = stream_spp;
+            if let Some(eye) = eye {
+                scene.views.retain(|v| v.eye == eye);
+            }
             seeds_of_frame.push(scene.views.iter().map(|v| v.seed).collect());
             let (started, cpu0) = (Instant::now(), process_cpu_seconds());
             let submitted = renderer.submit(&method, &scene, &levels)?;
@@ -663,6 +688,24 @@ pub(crate) fn remove_temporaries_of(folder: &Path, owned: impl Fn(&str) -> bool)
 pub(crate) fn frame_index_of(name: &str) -> Option<u32> {
     let digits = name.strip_prefix("frame-")?.split('.').next()?;
     if digits.len() >= 4 && digits.bytes().all(|b| b.is_ascii_digit()) { digits.parse().ok() } else { None }
+}
+
+/// The folder, inside a sequence folder, of the eyes' frames of a stereo sequence rendered
+/// one eye at a time (by shards): `SEQ/eyes/left/frame-0000.png`, joined into the frames.
+pub const EYES_DIR: &str = "eyes";
+
+/// An eye's name in file names: `centre`, `left`, `right`.
+pub fn eye_name(eye: Eye) -> &'static str {
+    match eye {
+        Eye::Centre => "centre",
+        Eye::Left => "left",
+        Eye::Right => "right",
+    }
+}
+
+/// The folder of `eye`'s frames in sequence folder `seq`.
+pub fn eye_folder(seq: &Path, eye: Eye) -> PathBuf {
+    seq.join(EYES_DIR).join(eye_name(eye))
 }
 
 /// The lock file, in a sequence's folder, of the process rendering it (`study::lock`).
@@ -933,7 +976,7 @@ pub fn verify_sequence(
     let manifest_path = folder.join("manifest.json");
     let bytes = std::fs::read(&manifest_path).ok()?;
     let m = SequenceManifest::read(&manifest_path).ok()?;
-    let expected = Expected { design, preset, id, method, exr, sampling, frames: 0..preset.frames };
+    let expected = Expected { design, preset, id, method, exr, sampling, frames: 0..preset.frames, eye: None };
     expected.why_not(folder, &m).is_none().then(|| sha256_hex(&bytes))
 }
 
@@ -946,6 +989,8 @@ pub(crate) struct Expected<'a> {
     pub(crate) exr: bool,
     pub(crate) sampling: Sampling,
     pub(crate) frames: std::ops::Range<u32>,
+    /// The one eye of a stereo pair the manifest holds (a shard's unit); `None`: every eye.
+    pub(crate) eye: Option<Eye>,
 }
 
 impl Expected<'_> {
@@ -953,7 +998,7 @@ impl Expected<'_> {
     pub(crate) fn why_not(&self, folder: &Path, m: &SequenceManifest) -> Option<String> {
         let (design, preset, id) = (self.design, self.preset, self.id);
         let spp = preset.samples_per_pixel.get(usize::from(id.samples).wrapping_sub(1)).copied();
-        let eyes = study::Eye::of_view(id.view).len() as u32;
+        let eyes = if self.eye.is_some() { 1 } else { study::Eye::of_view(id.view).len() as u32 };
         let checks: [(bool, String); 9] = [
             (m.id == *id, format!("id {} (expected {id})", m.id)),
             (m.method == self.method, format!("method `{}` (expected `{}`)", m.method.name(), self.method.name())),

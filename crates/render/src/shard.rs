@@ -2,9 +2,9 @@
 //! merge that proves the shards add up to the set (`stimuli merge`).
 //!
 //! **Plan.** The work of a set is cut into *units*: a sequence (or, with nested sampling,
-//! the sample levels of one stream) and a range of its frames. A unit's cost is its
-//! estimated camera samples (pixels x eyes x samples per pixel, scaled by the method's
-//! work per sample, [`samples_cost`]) times its frames. Sequences costing more than a
+//! the sample levels of one stream), one eye of it where it is stereo, and a range of its
+//! frames. A unit's cost is its estimated camera samples (pixels x samples per pixel,
+//! scaled by the method's work per sample, [`samples_cost`]) times its frames. Sequences costing more than a
 //! quarter of a shard's share are cut into frame ranges, then units go, most expensive
 //! first, to the shard with the least cost so far (ties: the lower shard), so shards
 //! finish at about the same time. The plan depends only on the design, preset, selection,
@@ -12,20 +12,23 @@
 //! `plan.json` into its set folder and refuses a folder holding another plan (another N,
 //! design, preset, selection or software version).
 //!
-//! **Units on disk.** A unit's frames are written into the sequence folder as in an
-//! unsharded set, then its record `SEQ/units/frames-FIRST-LAST.json` (`blurlab-unit/1`:
-//! the sequence manifest of those frames, with the shard that rendered them). A record
-//! exists only for a unit whose frames are all on disk; `--resume` skips a unit whose record
-//! and files verify. Where every unit of a sequence is in one folder (a shared folder, or a
-//! shard that owns the whole sequence), the shard writes the sequence's `manifest.json`,
-//! assembled only from the records (so two shards finishing at once write the same bytes)
-//! and publishes the index (`set`'s rules).
+//! **Units on disk.** A monoscopic unit's frames are written into the sequence folder as in
+//! an unsharded set; an eye unit's frames (that camera alone, with the seed it has in the
+//! pair) into `SEQ/eyes/EYE/`. Then its record `SEQ/units/frames-FIRST-LAST[-EYE].json`
+//! (`blurlab-unit/1`: the sequence manifest of those frames, with the shard and eye that
+//! rendered them). A record exists only for a unit whose frames are all on disk; `--resume`
+//! skips a unit whose record and files verify. Where every unit of a sequence is in one
+//! folder (a shared folder, or a shard that owns the whole sequence), the shard joins the
+//! eyes' frames side by side into the sequence's frames (the 8-bit rows as the whole frame
+//! encodes them, so the bytes are an unsharded render's), writes `manifest.json`, assembled
+//! only from the records (so two shards finishing at once write the same bytes), and
+//! publishes the index (`set`'s rules). The eyes' frames stay beside them, for `--resume`.
 //!
 //! **Merge.** [`merge`] reads the plan of every shard folder, refuses folders of different
 //! plans by name, finds every unit of the plan exactly once with files that verify (else
 //! lists precisely what is missing, damaged, duplicated or not in the plan, and writes
-//! nothing), then copies the frames into the output folder, writes the manifests and the
-//! index. Given only the output folder, it checks a shared folder in place.
+//! nothing), then copies the frames into the output folder (joining eye units' frames, which
+//! may come from different shard folders), writes the manifests and the index. Given only the output folder, it checks a shared folder in place.
 //!
 //! Seeds depend only on (design seed, stimulus, eye, frame), so a unit's frames are the
 //! bytes an unsharded render writes (on the CPU; on a GPU, for the same adapter and driver).
@@ -42,15 +45,15 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use study::design::{Design, Preset};
 use study::fsio::sha256_hex;
-use study::manifest::{Sampling, SequenceManifest};
+use study::manifest::{FrameRecord, Sampling, SequenceManifest};
 use study::method::MethodSpec;
-use study::{Method, SOFTWARE_VERSION, StimulusId};
+use study::{Eye, Method, SOFTWARE_VERSION, StimulusId};
 
 use crate::device::Renderer;
 use crate::env::EnvironmentMap;
 use crate::set::{
-    AtomicWriter, Expected, FileWriter, Progress, ProgressMode, SetError, SetFolder, SetRequest, frame_index_of,
-    io_err, manifest_bytes, remove_temporaries_of, render_stream, streams,
+    AtomicWriter, Expected, FileWriter, Progress, ProgressMode, SetError, SetFolder, SetRequest, eye_folder, eye_name,
+    frame_index_of, frame_name, io_err, manifest_bytes, remove_temporaries_of, render_stream, streams,
 };
 
 /// Format tag of `plan.json`.
@@ -105,11 +108,14 @@ impl FromStr for ShardSpec {
 }
 
 /// One unit of work: frames `first..end` of a sequence (or of the sample levels of one
-/// nested stream), and the shard that renders it.
+/// nested stream), of one eye where the sequence is stereo, and the shard that renders it.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Unit {
     /// The sequences rendered together: one, or a nested stream's levels.
     pub ids: Vec<StimulusId>,
+    /// The eye of a stereo sequence; `None` for a monoscopic one (its only camera).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eye: Option<Eye>,
     /// First frame.
     pub first: u32,
     /// One past the last frame.
@@ -128,7 +134,18 @@ impl Unit {
 
     /// The record's file name inside `SEQ/units/`.
     pub fn record_name(&self) -> String {
-        format!("frames-{:04}-{:04}.json", self.first, self.end.saturating_sub(1))
+        let eye = self.eye.map_or(String::new(), |e| format!("-{}", eye_name(e)));
+        format!("frames-{:04}-{:04}{eye}.json", self.first, self.end.saturating_sub(1))
+    }
+
+    /// The unit's part of sequence `id`, as reports name it: `ID [left eye ]frames A-B`.
+    pub fn name_for(&self, id: &StimulusId) -> String {
+        self.describe(&id.to_string())
+    }
+
+    fn describe(&self, ids: &str) -> String {
+        let eye = self.eye.map_or(String::new(), |e| format!(" {} eye", eye_name(e)));
+        format!("{ids}{eye} frames {}-{}", self.first, self.end.saturating_sub(1))
     }
 
     /// The record's path for member `id` under `set`.
@@ -140,7 +157,7 @@ impl Unit {
 impl fmt::Display for Unit {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let ids: Vec<String> = self.ids.iter().map(ToString::to_string).collect();
-        write!(f, "{} frames {}-{}", ids.join("+"), self.first, self.end.saturating_sub(1))
+        f.write_str(&self.describe(&ids.join("+")))
     }
 }
 
@@ -197,15 +214,17 @@ impl Plan {
                 .map(|id| preset.samples_per_pixel.get(usize::from(id.samples).wrapping_sub(1)).copied().unwrap_or(1))
                 .max()
                 .unwrap_or(1);
-            let eyes = study::Eye::of_view(members[0].view).len() as u64;
-            let pixels = u64::from(preset.width) * u64::from(preset.height) * eyes;
+            let pixels = u64::from(preset.width) * u64::from(preset.height);
             let per_frame = pixels * samples_cost(&request.method_of(&members[0])?, spp);
-            pieces.push((members, per_frame));
+            match Eye::of_view(members[0].view) {
+                [_] => pieces.push((members, None, per_frame)),
+                eyes => pieces.extend(eyes.iter().map(|&eye| (members.clone(), Some(eye), per_frame))),
+            }
         }
-        let total: u64 = pieces.iter().map(|(_, c)| c * u64::from(preset.frames)).sum();
+        let total: u64 = pieces.iter().map(|(_, _, c)| c * u64::from(preset.frames)).sum();
         let target = (total / (u64::from(shards.max(1)) * UNITS_PER_SHARD)).max(1);
         let mut units = Vec::new();
-        for (members, per_frame) in pieces {
+        for (members, eye, per_frame) in pieces {
             let frames = preset.frames;
             let chunks = (per_frame * u64::from(frames)).div_ceil(target).clamp(1, u64::from(frames.max(1))) as u32;
             let (base, extra) = (frames / chunks, frames % chunks);
@@ -214,6 +233,7 @@ impl Plan {
                 let len = base + u32::from(c < extra);
                 units.push(Unit {
                     ids: members.clone(),
+                    eye,
                     first,
                     end: first + len,
                     cost: per_frame * u64::from(len),
@@ -328,6 +348,9 @@ pub struct UnitRecord {
     pub first: u32,
     /// One past the last frame.
     pub end: u32,
+    /// The eye of a stereo sequence; its frames are in [`eye_folder`] and name it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eye: Option<Eye>,
     /// The sequence manifest, listing only these frames.
     pub sequence: SequenceManifest,
 }
@@ -424,12 +447,13 @@ pub fn render_shard_with(
                     }
                 }
                 let frames = unit.frames();
-                remove_temporaries_of(&seq, |target| frame_index_of(target).is_some_and(|f| frames.contains(&f)));
+                let folder = unit.eye.map_or_else(|| seq.clone(), |eye| eye_folder(&seq, eye));
+                remove_temporaries_of(&folder, |target| frame_index_of(target).is_some_and(|f| frames.contains(&f)));
             }
             folder.publish(writer)?;
             let bar = progress.sequence_bar(&lead, unit.end - unit.first);
             let frame_cost = unit.cost / u64::from((unit.end - unit.first).max(1));
-            let manifests = render_stream(request, &renderer, &unit.ids, unit.frames(), writer, |_| {
+            let manifests = render_stream(request, &renderer, &unit.ids, unit.frames(), unit.eye, writer, |_| {
                 progress.advance(frame_cost);
                 if let Some(b) = &bar {
                     b.inc(1);
@@ -446,6 +470,7 @@ pub fn render_shard_with(
                     shards: shard.count,
                     first: unit.first,
                     end: unit.end,
+                    eye: unit.eye,
                     sequence,
                 };
                 let path = unit.record_path(out, id);
@@ -527,16 +552,21 @@ fn read_record(
     if record.format != UNIT_FORMAT {
         return Err(format!("{}: format `{}`, expected `{UNIT_FORMAT}`", path.display(), record.format));
     }
-    if (record.shard, record.shards, record.first, record.end) != (unit.shard, plan.shards, unit.first, unit.end) {
+    if (record.shard, record.shards, record.first, record.end, record.eye)
+        != (unit.shard, plan.shards, unit.first, unit.end, unit.eye)
+    {
+        let eye = |e: Option<Eye>| e.map_or(String::new(), |e| format!(" {} eye", eye_name(e)));
         return Err(format!(
-            "{}: rendered as shard {}/{} frames {}..{}, and the plan gives it to shard {}/{} frames {}..{}",
+            "{}: rendered as shard {}/{}{} frames {}..{}, and the plan gives it to shard {}/{}{} frames {}..{}",
             path.display(),
             record.shard,
             record.shards,
+            eye(record.eye),
             record.first,
             record.end,
             unit.shard,
             plan.shards,
+            eye(unit.eye),
             unit.first,
             unit.end
         ));
@@ -549,8 +579,16 @@ fn read_record(
             plan.software_version
         ));
     }
-    let expected =
-        Expected { design, preset, id, method, exr: plan.exr, sampling: plan.sampling, frames: unit.frames() };
+    let expected = Expected {
+        design,
+        preset,
+        id,
+        method,
+        exr: plan.exr,
+        sampling: plan.sampling,
+        frames: unit.frames(),
+        eye: unit.eye,
+    };
     match expected.why_not(&set.join(id.to_string()), &record.sequence) {
         Some(why) => Err(format!("{}: {why}", path.display())),
         None => Ok(record),
@@ -612,6 +650,126 @@ pub fn assemble(records: &[UnitRecord]) -> Result<SequenceManifest, String> {
     Ok(manifest)
 }
 
+/// The records of sequence `id`'s units as whole frames: a monoscopic unit's record as it
+/// is, and the eye units of each frame range of a stereo sequence joined. `parts` pairs each
+/// record with the sequence folder holding its files; joined frames are written into
+/// `seq_out` (where they differ from what is there). The eyes' 8-bit frames are joined and
+/// encoded as the frame rendered whole is (and their float EXRs composed exactly), so the
+/// frames are the bytes of an unsharded render. Returns the records and the files written.
+fn join_eyes(
+    id: &StimulusId,
+    parts: &[(PathBuf, UnitRecord)],
+    seq_out: &Path,
+    writer: &dyn FileWriter,
+) -> Result<(Vec<UnitRecord>, usize), SetError> {
+    let mut whole = Vec::new();
+    let mut ranges: BTreeMap<(u32, u32), Vec<&(PathBuf, UnitRecord)>> = BTreeMap::new();
+    for part in parts {
+        match part.1.eye {
+            None => whole.push(part.1.clone()),
+            Some(_) => ranges.entry((part.1.first, part.1.end)).or_default().push(part),
+        }
+    }
+    let eyes = Eye::of_view(id.view);
+    let mut written = 0;
+    for ((first, end), mut range) in ranges {
+        let mismatch = |message: String| SetError::Mismatch { path: seq_out.join(UNITS_DIR), message };
+        range.sort_by_key(|p| eyes.iter().position(|e| Some(*e) == p.1.eye));
+        let found: Vec<Option<Eye>> = range.iter().map(|p| p.1.eye).collect();
+        if found != eyes.iter().copied().map(Some).collect::<Vec<_>>() {
+            let names: Vec<&str> = found.iter().flatten().map(|&e| eye_name(e)).collect();
+            return Err(mismatch(format!(
+                "frames {first}..{end} of {id} have the eye units [{}], expected one of each of its eyes",
+                names.join(", ")
+            )));
+        }
+        let (lead, rest) = (&range[0].1, &range[1..]);
+        if let Some(other) = rest.iter().find(|p| p.1.sequence.gpu != lead.sequence.gpu) {
+            return Err(mismatch(format!(
+                "frames {first}..{end} of {id}: the eyes were rendered on {} and on {}; one sequence is rendered on one GPU adapter and driver (or all on CPUs); render those units again",
+                lead.sequence.device, other.1.sequence.device
+            )));
+        }
+        let mut sequence = lead.sequence.clone();
+        sequence.width = range.iter().map(|p| p.1.sequence.width).sum();
+        let mut devices: Vec<&str> = Vec::new();
+        for p in &range {
+            if !devices.contains(&p.1.sequence.device.as_str()) {
+                devices.push(&p.1.sequence.device);
+            }
+        }
+        sequence.device = devices.join("; ");
+        sequence.frames.clear();
+        for k in 0..lead.sequence.frames.len() {
+            let frames: Vec<&FrameRecord> = range.iter().filter_map(|p| p.1.sequence.frames.get(k)).collect();
+            let index = frames[0].index;
+            if frames.len() != range.len() || frames.iter().any(|f| f.index != index) {
+                return Err(mismatch(format!("frames {first}..{end} of {id}: its eye units list different frames")));
+            }
+            let read = |folder: &Path, name: &str, hash: &str| -> Result<Vec<u8>, SetError> {
+                let path = folder.join(name);
+                let bytes = std::fs::read(&path).map_err(io_err(&path, "cannot read"))?;
+                if sha256_hex(&bytes) != hash {
+                    return Err(SetError::Mismatch { path, message: "does not hash as its unit record says".into() });
+                }
+                Ok(bytes)
+            };
+            let mut halves = Vec::new();
+            for (p, f) in range.iter().zip(&frames) {
+                let bytes = read(&p.0, &f.png, &f.png_sha256)?;
+                let path = p.0.join(&f.png);
+                halves.push(crate::io::decode_png_rgb8(&bytes).map_err(|source| SetError::Encode { path, source })?);
+            }
+            let png_name = frame_name(index, "png");
+            let png_path = seq_out.join(&png_name);
+            let (w, h, rows) = crate::io::join_rgb8_side_by_side(&halves)
+                .map_err(|source| SetError::Encode { path: png_path.clone(), source })?;
+            let png = crate::io::encode_png_rgb8(w, h, &rows);
+            written += write_if_changed(writer, &png_path, &png)?;
+            let mut record = FrameRecord {
+                index,
+                png: png_name,
+                png_sha256: sha256_hex(&png),
+                exr: None,
+                exr_sha256: None,
+                wall_seconds: frames.iter().map(|f| f.wall_seconds).sum(),
+                cpu_seconds: frames.iter().map(|f| f.cpu_seconds).sum(),
+                nonfinite_samples: frames.iter().map(|f| f.nonfinite_samples).sum(),
+                seeds: frames.iter().flat_map(|f| f.seeds.iter().copied()).collect(),
+                gpu_seconds: frames.iter().filter_map(|f| f.gpu_seconds).reduce(|a, b| a + b),
+            };
+            if frames.iter().all(|f| f.exr.is_some()) {
+                let mut images = Vec::new();
+                for (p, f) in range.iter().zip(&frames) {
+                    let (Some(name), Some(hash)) = (&f.exr, &f.exr_sha256) else { continue };
+                    let path = p.0.join(name);
+                    let bytes = read(&p.0, name, hash)?;
+                    images.push(crate::io::decode_exr(&bytes).map_err(|source| SetError::Encode { path, source })?);
+                }
+                let exr_name = frame_name(index, "exr");
+                let exr_path = seq_out.join(&exr_name);
+                let exr = crate::io::encode_exr(&crate::io::compose_side_by_side(&images))
+                    .map_err(|source| SetError::Encode { path: exr_path.clone(), source })?;
+                written += write_if_changed(writer, &exr_path, &exr)?;
+                (record.exr, record.exr_sha256) = (Some(exr_name), Some(sha256_hex(&exr)));
+            }
+            sequence.frames.push(record);
+        }
+        whole.push(UnitRecord { eye: None, sequence, ..lead.clone() });
+    }
+    whole.sort_by_key(|r| r.first);
+    Ok((whole, written))
+}
+
+/// Writes `bytes` to `path` unless it already holds them; returns the files written (0 or 1).
+fn write_if_changed(writer: &dyn FileWriter, path: &Path, bytes: &[u8]) -> Result<usize, SetError> {
+    if std::fs::read(path).ok().as_deref() == Some(bytes) {
+        return Ok(0);
+    }
+    writer.write(path, bytes).map_err(io_err(path, "cannot write"))?;
+    Ok(1)
+}
+
 /// Writes the manifest of every sequence of `unit` whose units are all in the folder and
 /// verify, and publishes the index.
 fn complete_sequences(
@@ -631,6 +789,9 @@ fn complete_sequences(
             .map(|u| read_record(&request.out, request.design, &request.preset, plan, u, id, method))
             .collect();
         let Ok(records) = records else { continue };
+        let seq = request.out.join(id.to_string());
+        let parts: Vec<(PathBuf, UnitRecord)> = records.into_iter().map(|r| (seq.clone(), r)).collect();
+        let (records, _) = join_eyes(id, &parts, &seq, writer)?;
         let manifest = assemble(&records).map_err(|message| SetError::Mismatch {
             path: request.out.join(id.to_string()).join(UNITS_DIR),
             message,
@@ -776,7 +937,7 @@ pub fn merge(out: &Path, dirs: &[PathBuf], progress: ProgressMode) -> Result<Mer
                     Err(why) => damaged.push(why),
                 }
             }
-            let name = format!("{id} frames {}-{} (shard {}/{})", unit.first, unit.end - 1, unit.shard, plan.shards);
+            let name = format!("{} (shard {}/{})", unit.name_for(id), unit.shard, plan.shards);
             match valid.len() {
                 0 if damaged.is_empty() => missing.push(format!("missing: {name}")),
                 0 => missing.push(format!("damaged: {name}: {}", damaged.join("; "))),
@@ -840,7 +1001,8 @@ pub fn merge(out: &Path, dirs: &[PathBuf], progress: ProgressMode) -> Result<Mer
                 if manifest_path.exists() {
                     std::fs::remove_file(&manifest_path).map_err(io_err(&manifest_path, "cannot remove"))?;
                 }
-                for (d, record) in records {
+                // Eye units are joined into frames below.
+                for (d, record) in records.iter().filter(|(_, r)| r.eye.is_none()) {
                     let from = dirs[*d].join(id.to_string());
                     for f in &record.sequence.frames {
                         let files = [Some((&f.png, &f.png_sha256)), f.exr.as_ref().zip(f.exr_sha256.as_ref())];
@@ -860,7 +1022,11 @@ pub fn merge(out: &Path, dirs: &[PathBuf], progress: ProgressMode) -> Result<Mer
                     }
                 }
             }
-            let records: Vec<UnitRecord> = records.iter().map(|(_, r)| r.clone()).collect();
+            let parts: Vec<(PathBuf, UnitRecord)> =
+                records.iter().map(|(d, r)| (dirs[*d].join(id.to_string()), r.clone())).collect();
+            let (records, joined) = join_eyes(id, &parts, &seq, &writer)?;
+            report.copied_files += joined;
+            let units = parts.len();
             let manifest =
                 assemble(&records).map_err(|message| SetError::Mismatch { path: seq.join(UNITS_DIR), message })?;
             let path = seq.join("manifest.json");
@@ -869,10 +1035,10 @@ pub fn merge(out: &Path, dirs: &[PathBuf], progress: ProgressMode) -> Result<Mer
                 writer.write(&path, &bytes).map_err(io_err(&path, "cannot write"))?;
             }
             folder.verified.insert((*id, sha256_hex(&bytes)));
-            report.units += records.len();
-            progress.advance(records.len() as u64);
+            report.units += units;
+            progress.advance(units as u64);
             done += 1;
-            progress.finished(done, id, &format!("{} units verified", records.len()), 0.0);
+            progress.finished(done, id, &format!("{units} units verified"), 0.0);
         }
         folder.publish(&writer)
     })();
@@ -956,10 +1122,23 @@ mod tests {
             let plan = Plan::compute(&req, n).unwrap();
             assert_eq!(plan, Plan::compute(&req, n).unwrap(), "deterministic");
             for id in &req.ids {
-                let mut frames: Vec<u32> =
-                    plan.units.iter().filter(|u| u.ids == [*id]).flat_map(|u| u.frames()).collect();
-                frames.sort_unstable();
-                assert_eq!(frames, (0..5).collect::<Vec<_>>(), "{id} with N = {n}");
+                // Every frame of every eye once: a stereo sequence's units are per eye.
+                let eyes: Vec<Option<Eye>> = match Eye::of_view(id.view) {
+                    [_] => vec![None],
+                    eyes => eyes.iter().copied().map(Some).collect(),
+                };
+                for eye in eyes {
+                    let mut frames: Vec<u32> =
+                        plan.units.iter().filter(|u| u.ids == [*id] && u.eye == eye).flat_map(|u| u.frames()).collect();
+                    frames.sort_unstable();
+                    assert_eq!(frames, (0..5).collect::<Vec<_>>(), "{id} {eye:?} with N = {n}");
+                }
+                assert!(
+                    plan.units
+                        .iter()
+                        .filter(|u| u.ids == [*id])
+                        .all(|u| u.eye.is_some() == (id.view == study::View::Stereo))
+                );
             }
             assert!(plan.units.iter().all(|u| u.shard < n && u.end > u.first));
             let loads = plan.loads();
@@ -969,10 +1148,17 @@ mod tests {
             assert!(max <= total / u64::from(n) + largest_unit, "N = {n}: {loads:?}");
             assert!(plan.describe().contains(&format!("shard {}/{n}:", n - 1)));
         }
-        // Cost follows samples x pixels: A5 (16 spp) stereo costs 32 times A1 mono per frame.
+        // Cost follows samples x pixels: an eye of A5 (16 spp) stereo costs 16 times A1 mono
+        // per frame, and the pair 32 times.
         let plan = Plan::compute(&request(&d, Path::new("x"), &["M1-S1-T1-A1", "M1-S1-T1-A5-stereo"]), 1).unwrap();
         let per_frame = |u: &Unit| u.cost / u64::from(u.end - u.first);
-        assert_eq!(per_frame(&plan.units[plan.units.len() - 1]), 32 * per_frame(&plan.units[0]));
+        let eyes: Vec<&Unit> = plan.units.iter().filter(|u| u.eye.is_some()).collect();
+        assert!([Eye::Left, Eye::Right].iter().all(|&e| eyes.iter().any(|u| u.eye == Some(e))));
+        assert!(eyes.iter().all(|u| per_frame(u) == 16 * per_frame(&plan.units[0])));
+        let right = eyes.iter().find(|u| u.eye == Some(Eye::Right) && u.first == 0).unwrap();
+        let last = right.end - 1;
+        assert_eq!(right.to_string(), format!("M1-S1-T1-A5-stereo right eye frames 0-{last}"));
+        assert_eq!(right.record_name(), format!("frames-0000-{last:04}-right.json"));
         // Four shards of a two-sequence set split the costly sequence into frame ranges.
         let plan = Plan::compute(&request(&d, Path::new("x"), &["M1-S1-T1-A1", "M1-S1-T1-A5-stereo"]), 4).unwrap();
         assert!(plan.units.iter().filter(|u| u.ids[0].samples == 5).count() >= 4, "{}", plan.describe());

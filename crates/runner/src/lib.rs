@@ -83,8 +83,8 @@ pub enum RunnerError {
         path: PathBuf,
         /// The participant code.
         participant: String,
-        /// Who holds it.
-        holder: study::lock::Holder,
+        /// Who holds it (boxed: it is the largest variant).
+        holder: Box<study::lock::Holder>,
     },
     /// A command-line or start-screen value is unusable (participant code, model, display).
     #[error("{what}: {message}")]

@@ -110,7 +110,7 @@ pub fn lock_participant(dir: &Path, participant: &str) -> Result<study::lock::Lo
     std::fs::create_dir_all(dir).map_err(|source| RunnerError::Io { path: dir.to_owned(), source })?;
     study::lock::LockFile::acquire(&lock_path(dir)).map_err(|e| match e {
         study::lock::LockError::Held { path, holder } => {
-            RunnerError::Locked { path, participant: participant.to_owned(), holder }
+            RunnerError::Locked { path, participant: participant.to_owned(), holder: Box::new(holder) }
         }
         study::lock::LockError::Io { path, source } => RunnerError::Io { path, source },
     })

@@ -158,6 +158,9 @@ pub fn pid_alive(pid: u32) -> bool {
     }
 }
 
+/// Age (seconds) at which a lock file that holds no readable holder is judged stale.
+const UNREADABLE_STALE_SECONDS: u64 = 5;
+
 impl LockFile {
     /// Takes the lock at `path`, taking over a stale one; refuses a live holder.
     pub fn acquire(path: &Path) -> Result<LockFile, LockError> {
@@ -166,7 +169,10 @@ impl LockFile {
 
     fn acquire_as(path: &Path, me: Holder) -> Result<LockFile, LockError> {
         let io = |source| LockError::Io { path: path.to_owned(), source };
-        for _ in 0..100 {
+        // An unreadable file is judged stale only once it is 5 s old (a holder killed between
+        // creating and writing it leaves it empty), so the attempts outlast that.
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(UNREADABLE_STALE_SECONDS + 5);
+        while std::time::Instant::now() < deadline {
             match OpenOptions::new().write(true).create_new(true).open(path) {
                 Ok(mut file) => {
                     // Advisory lock for the local case; correctness does not depend on it.
@@ -193,7 +199,7 @@ impl LockFile {
                 // an old unreadable file stale.
                 None => {
                     let age = file.metadata().and_then(|m| m.modified()).ok().and_then(|t| t.elapsed().ok());
-                    if age.is_some_and(|a| a.as_secs() >= 5) {
+                    if age.is_some_and(|a| a.as_secs() >= UNREADABLE_STALE_SECONDS) {
                         take_over(path, &text)?;
                     } else {
                         std::thread::sleep(std::time::Duration::from_millis(20));
@@ -301,6 +307,20 @@ mod tests {
         assert!(LockFile::acquire_as(&path, run(0)).is_err());
         drop(taken);
         assert!(!path.exists());
+    }
+
+    #[test]
+    fn an_empty_lock_file_of_a_holder_killed_while_creating_it_is_taken_over_once_old() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.lock");
+        std::fs::write(&path, "").unwrap();
+        let old = std::time::SystemTime::now() - std::time::Duration::from_secs(3);
+        std::fs::File::options().write(true).open(&path).unwrap().set_modified(old).unwrap();
+        // Two more seconds and it is 5 s old: acquire waits for that instead of giving up.
+        let started = std::time::Instant::now();
+        let taken = LockFile::acquire(&path).unwrap();
+        assert!(started.elapsed().as_secs_f64() > 1.5, "{:?}", started.elapsed());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), taken.holder.line());
     }
 
     #[test]
