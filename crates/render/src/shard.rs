@@ -609,7 +609,6 @@ pub fn assemble(records: &[UnitRecord]) -> Result<SequenceManifest, String> {
     sorted.sort_by_key(|r| r.first);
     let first = sorted.first().ok_or("no units")?;
     let mut manifest = first.sequence.clone();
-    let mut devices: Vec<String> = Vec::new();
     let mut frames = Vec::new();
     manifest.frames.clear();
     for r in &sorted {
@@ -640,13 +639,11 @@ pub fn assemble(records: &[UnitRecord]) -> Result<SequenceManifest, String> {
                 keys.join(", ")
             ));
         }
-        if !devices.contains(&r.sequence.device) {
-            devices.push(r.sequence.device.clone());
-        }
         frames.extend(r.sequence.frames.iter().cloned());
     }
     manifest.frames = frames;
-    manifest.device = devices.join("; ");
+    // A joined eye unit's device may already list two.
+    manifest.device = distinct_devices(sorted.iter().flat_map(|r| r.sequence.device.split("; ")));
     Ok(manifest)
 }
 
@@ -692,13 +689,7 @@ fn join_eyes(
         }
         let mut sequence = lead.sequence.clone();
         sequence.width = range.iter().map(|p| p.1.sequence.width).sum();
-        let mut devices: Vec<&str> = Vec::new();
-        for p in &range {
-            if !devices.contains(&p.1.sequence.device.as_str()) {
-                devices.push(&p.1.sequence.device);
-            }
-        }
-        sequence.device = devices.join("; ");
+        sequence.device = distinct_devices(range.iter().map(|p| p.1.sequence.device.as_str()));
         sequence.frames.clear();
         for k in 0..lead.sequence.frames.len() {
             let frames: Vec<&FrameRecord> = range.iter().filter_map(|p| p.1.sequence.frames.get(k)).collect();
@@ -706,18 +697,10 @@ fn join_eyes(
             if frames.len() != range.len() || frames.iter().any(|f| f.index != index) {
                 return Err(mismatch(format!("frames {first}..{end} of {id}: its eye units list different frames")));
             }
-            let read = |folder: &Path, name: &str, hash: &str| -> Result<Vec<u8>, SetError> {
-                let path = folder.join(name);
-                let bytes = std::fs::read(&path).map_err(io_err(&path, "cannot read"))?;
-                if sha256_hex(&bytes) != hash {
-                    return Err(SetError::Mismatch { path, message: "does not hash as its unit record says".into() });
-                }
-                Ok(bytes)
-            };
             let mut halves = Vec::new();
             for (p, f) in range.iter().zip(&frames) {
-                let bytes = read(&p.0, &f.png, &f.png_sha256)?;
                 let path = p.0.join(&f.png);
+                let bytes = read_as_recorded(&path, &f.png_sha256)?;
                 halves.push(crate::io::decode_png_rgb8(&bytes).map_err(|source| SetError::Encode { path, source })?);
             }
             let png_name = frame_name(index, "png");
@@ -743,7 +726,7 @@ fn join_eyes(
                 for (p, f) in range.iter().zip(&frames) {
                     let (Some(name), Some(hash)) = (&f.exr, &f.exr_sha256) else { continue };
                     let path = p.0.join(name);
-                    let bytes = read(&p.0, name, hash)?;
+                    let bytes = read_as_recorded(&path, hash)?;
                     images.push(crate::io::decode_exr(&bytes).map_err(|source| SetError::Encode { path, source })?);
                 }
                 let exr_name = frame_name(index, "exr");
@@ -759,6 +742,30 @@ fn join_eyes(
     }
     whole.sort_by_key(|r| r.first);
     Ok((whole, written))
+}
+
+/// The bytes of a file a verified record lists, checked against its hash again (it may have
+/// changed since it was verified).
+fn read_as_recorded(path: &Path, hash: &str) -> Result<Vec<u8>, SetError> {
+    let bytes = std::fs::read(path).map_err(io_err(path, "cannot read"))?;
+    if sha256_hex(&bytes) != hash {
+        return Err(SetError::Mismatch {
+            path: path.to_owned(),
+            message: "changed while being merged: it no longer hashes as recorded".into(),
+        });
+    }
+    Ok(bytes)
+}
+
+/// The distinct devices, in order, joined by `; ` (as manifests name them).
+fn distinct_devices<'a>(devices: impl Iterator<Item = &'a str>) -> String {
+    let mut distinct: Vec<&str> = Vec::new();
+    for d in devices {
+        if !distinct.contains(&d) {
+            distinct.push(d);
+        }
+    }
+    distinct.join("; ")
 }
 
 /// Writes `bytes` to `path` unless it already holds them; returns the files written (0 or 1).
@@ -781,6 +788,13 @@ fn complete_sequences(
     report: &mut ShardReport,
 ) -> Result<(), SetError> {
     for id in &unit.ids {
+        let seq = request.out.join(id.to_string());
+        let path = seq.join("manifest.json");
+        // A verified manifest is the sequence's (a re-rendered unit removes it first): no
+        // need to verify every record and join the eyes again for each of its units.
+        if std::fs::read(&path).is_ok_and(|bytes| folder.verified.contains(&(*id, sha256_hex(&bytes)))) {
+            continue;
+        }
         let method = request.method_of(id)?.kind;
         let records: Result<Vec<UnitRecord>, String> = plan
             .units
@@ -789,14 +803,10 @@ fn complete_sequences(
             .map(|u| read_record(&request.out, request.design, &request.preset, plan, u, id, method))
             .collect();
         let Ok(records) = records else { continue };
-        let seq = request.out.join(id.to_string());
         let parts: Vec<(PathBuf, UnitRecord)> = records.into_iter().map(|r| (seq.clone(), r)).collect();
         let (records, _) = join_eyes(id, &parts, &seq, writer)?;
-        let manifest = assemble(&records).map_err(|message| SetError::Mismatch {
-            path: request.out.join(id.to_string()).join(UNITS_DIR),
-            message,
-        })?;
-        let path = request.out.join(id.to_string()).join("manifest.json");
+        let manifest =
+            assemble(&records).map_err(|message| SetError::Mismatch { path: seq.join(UNITS_DIR), message })?;
         let bytes = manifest_bytes(&manifest);
         if std::fs::read(&path).ok().as_deref() != Some(bytes.as_slice()) {
             writer.write(&path, &bytes).map_err(io_err(&path, "cannot write"))?;
@@ -1007,14 +1017,7 @@ pub fn merge(out: &Path, dirs: &[PathBuf], progress: ProgressMode) -> Result<Mer
                     for f in &record.sequence.frames {
                         let files = [Some((&f.png, &f.png_sha256)), f.exr.as_ref().zip(f.exr_sha256.as_ref())];
                         for (name, hash) in files.into_iter().flatten() {
-                            let source = from.join(name);
-                            let bytes = std::fs::read(&source).map_err(io_err(&source, "cannot read"))?;
-                            if sha256_hex(&bytes) != *hash {
-                                return Err(SetError::Mismatch {
-                                    path: source,
-                                    message: "changed while being merged: it no longer hashes as recorded".into(),
-                                });
-                            }
+                            let bytes = read_as_recorded(&from.join(name), hash)?;
                             let target = seq.join(name);
                             writer.write(&target, &bytes).map_err(io_err(&target, "cannot write"))?;
                             report.copied_files += 1;
