@@ -5,8 +5,9 @@
 # the same 640x360 frame at 8 intervals per pixel, 1 and 4 lighting samples), then
 # a timed slice of the full study set (all five sample levels of M3-S3-T5, mono and stereo,
 # 120 frames each, PNGs written), rendered once independently and once with --nested.
+# Then the cost-of-accuracy sweep (`blurlab cost --device gpu`, into $OUT/cost/).
 # Prints one JSON object on stdout; progress goes to stderr. Meant for a machine with a real
-# GPU (under 8 minutes on one NVIDIA H200); with QUICK=1 it runs the quick preset instead
+# GPU (the measurements before the cost sweep take under 8 minutes on one NVIDIA H200); with QUICK=1 it runs the quick preset instead
 # (minutes on lavapipe, to check the script itself).
 #
 # The binary: $BLURLAB_BIN, else ./bin/blurlab (a stripped release build carried to a machine
@@ -107,3 +108,11 @@ cat <<EOF | tee "$out/result.json"
   }
 }
 EOF
+
+# Last (so a time limit cannot cost the results above): the cost-of-accuracy sweep of
+# issue #15 on the GPU, the same request as the committed CPU report
+# analysis/cost/full-M2-S2-T5 (quick: as analysis/cost/quick-M2-S2-T5), into $OUT/cost/.
+if [ "${QUICK:-0}" = 1 ]; then cost_spp=(--max-spp 16 --reference-spp 4096); else cost_spp=(--max-spp 256 --reference-spp 25600); fi
+log "cost of accuracy (blurlab cost --device gpu, M2-S2-T5)"
+"$bin" cost --preset "$preset" --id M2-S2-T5 --device gpu "${cost_spp[@]}" --repetitions 3 --quiet \
+  --out "$out/cost" 2>"$out/cost.log" || log "cost sweep failed: see $out/cost.log"
