@@ -20,7 +20,7 @@ use study::Method;
 use study::StimulusId;
 use study::cost::{CostRow, CostSweep};
 
-use crate::plots::{Figure, PlotError, group_colour, save_figure};
+use crate::plots::{Figure, PlotError, draw_legend, group_colour, log_log_chart, save_figure};
 
 /// Why the report could not be made.
 #[derive(Debug, thiserror::Error)]
@@ -284,24 +284,13 @@ impl Figure for CostFigure {
         }
         let (t0, t1) = all.iter().fold((f64::INFINITY, 0f64), |a, p| (a.0.min(p.0), a.1.max(p.0)));
         let (e0, e1) = all.iter().fold((f64::INFINITY, 0f64), |a, p| (a.0.min(p.1), a.1.max(p.1)));
-        let mut chart = ChartBuilder::on(root)
-            .caption(&self.title, ("sans-serif", 18.0).into_font())
-            .margin(14)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d((t0 / 1.5..t1 * 1.5).log_scale(), (e0 / 1.5..e1 * 1.5).log_scale())
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_label_formatter(&|v| format!("{v:.3}"))
-            .y_label_formatter(&|v| format!("{v:.3}"))
-            .light_line_style(BLACK.mix(0.04))
-            .x_desc("seconds per frame (median)")
-            .y_desc(self.y_desc.as_str())
-            .label_style(("sans-serif", 13.0))
-            .axis_desc_style(("sans-serif", 14.0))
-            .draw()
-            .map_err(|e| err(&e))?;
+        let mut chart = log_log_chart(
+            root,
+            &self.title,
+            (t0 / 1.5..t1 * 1.5, "seconds per frame (median)"),
+            (e0 / 1.5..e1 * 1.5, self.y_desc.as_str()),
+            (&|v| format!("{v:.3}"), &|v| format!("{v:.3}")),
+        )?;
         if let Some((ta, ea)) = self.slope_anchor {
             let line: Vec<(f64, f64)> =
                 [ta, t1 * 1.4].iter().map(|&t| (t, ea * (ta / t).sqrt())).filter(|p| p.1 >= e0 / 1.5).collect();
@@ -342,33 +331,27 @@ impl Figure for CostFigure {
                 )])
                 .map_err(|e| err(&e))?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.3))
-            .label_font(("sans-serif", 12.0))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| err(&e))?;
+        draw_legend(&mut chart)?;
         Ok(())
     }
 }
 
 /// The curves of the plots: one per method (the filters at their highest input level).
 fn curves(rows: &[CostRow], error: impl Fn(&CostRow) -> f64) -> Vec<(String, Vec<(f64, f64)>)> {
-    let mut by: BTreeMap<(Method, u32), Vec<&CostRow>> = BTreeMap::new();
+    let mut by: BTreeMap<(Method, &str, u32), Vec<&CostRow>> = BTreeMap::new();
     for r in rows {
         let input = if matches!(r.method, Method::Tracer) { 0 } else { r.input_spp };
-        by.entry((r.method, input)).or_default().push(r);
+        by.entry((r.method, r.knob.as_str(), input)).or_default().push(r);
     }
-    let top_input = |m: Method| by.keys().filter(|k| k.0 == m).map(|k| k.1).max();
+    let top_input = |m: Method| by.keys().filter(|k| k.0 == m).map(|k| k.2).max();
     by.iter()
-        .filter(|((m, input), _)| !matches!(m, Method::Mcguire | Method::Guertin) || Some(*input) == top_input(*m))
-        .map(|((m, input), rs)| {
-            let label = match m {
-                Method::Tracer => "tracer (spp)".to_owned(),
-                Method::Accum => format!("accum (instants, {input} spp each)"),
-                Method::Analytic => "analytic (intervals)".to_owned(),
+        .filter(|((m, _, input), _)| !matches!(m, Method::Mcguire | Method::Guertin) || Some(*input) == top_input(*m))
+        .map(|((m, knob, input), rs)| {
+            let label = match (m, *knob) {
+                (Method::Tracer, _) => "tracer (spp)".to_owned(),
+                (Method::Accum, _) => format!("accum (instants, {input} spp each)"),
+                (Method::Analytic, "supersampling") => "analytic (n x n points per pixel, 8 intervals)".to_owned(),
+                (Method::Analytic, _) => "analytic (intervals)".to_owned(),
                 _ => format!("{m} (taps, {input} spp in)"),
             };
             // Along the knob, coarsest first (measured times can be out of order).

@@ -17,6 +17,7 @@ pub mod logs;
 pub mod paired;
 pub mod plots;
 pub mod prediction;
+pub mod rasterizer;
 pub mod report;
 pub mod scaling;
 pub mod srange;

@@ -107,6 +107,53 @@ pub fn save_figure<F: Figure>(figure: &F, dir: &Path, stem: &str) -> Result<Vec<
     Ok(out)
 }
 
+/// A chart with both axes logarithmic.
+pub type LogLogChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+/// Formats a tick label.
+pub type TickFormat<'f> = &'f dyn Fn(&f64) -> String;
+
+/// A log-log chart with its titled, labelled mesh drawn (the cost and accuracy figures):
+/// `x` and `y` are the axis ranges, `fmt` formats both axes' tick labels.
+pub fn log_log_chart<'a, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    (x, x_desc): (std::ops::Range<f64>, &str),
+    (y, y_desc): (std::ops::Range<f64>, &str),
+    fmt: (TickFormat<'_>, TickFormat<'_>),
+) -> Result<LogLogChart<'a, DB>, String> {
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FONT, 18.0).into_font())
+        .margin(14)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x.log_scale(), y.log_scale())
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_label_formatter(fmt.0)
+        .y_label_formatter(fmt.1)
+        .light_line_style(BLACK.mix(0.04))
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .label_style((FONT, 13.0))
+        .axis_desc_style((FONT, 14.0))
+        .draw()
+        .map_err(err)?;
+    Ok(chart)
+}
+
+/// Draws the series' legend of a [`log_log_chart`] in its upper right corner.
+pub fn draw_legend<'a, DB: DrawingBackend + 'a>(chart: &mut LogLogChart<'a, DB>) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.3))
+        .label_font((FONT, 12.0))
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(err)
+}
+
 fn text_style(size: f64) -> TextStyle<'static> {
     (FONT, size).into_font().color(&BLACK)
 }

@@ -29,6 +29,12 @@ struct AnalyticParams {
     range: u32,
     lighting: u32,
     tiles_x: u32,
+    // Sample points per output pixel along each axis: the image is the supersampled one, whose
+    // n x n blocks are output pixels owning the shading's sample sequences.
+    supersampling: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // A moving triangle, set up on the host: edge k's cross-product polynomial C0 + C1 t + C2 t^2
@@ -497,7 +503,7 @@ struct Shaded {
     nonfinite: u32,
 }
 
-fn shade(ti: u32, iv: Interval, s: vec2<f32>, seed: u32, index: u32) -> Shaded {
+fn shade(ti: u32, iv: Interval, s: vec2<f32>, seed: u32, index: u32, sub: u32) -> Shaded {
     if !SHADE {
         if triangles[ti].flags.x == SPHERE {
             return Shaded(vec3<f32>(1.0, 0.0, 0.0), 0u);
@@ -533,8 +539,9 @@ fn shade(ti: u32, iv: Interval, s: vec2<f32>, seed: u32, index: u32) -> Shaded {
     let dir = normalize3(camera_ray(s));
     var sum = vec3<f32>(0.0);
     var bad = 0u;
+    let first = (index * ap.supersampling * ap.supersampling + sub) * ap.lighting;
     for (var j = 0u; j < ap.lighting; j++) {
-        let l = radiance_from(sphere, seed, index * ap.lighting + j, dir, hit);
+        let l = radiance_from(sphere, seed, first + j, dir, hit);
         if is_finite3(l) {
             sum += l;
         } else {
@@ -554,7 +561,9 @@ fn analytic_pixel(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let pixel = y * ap.width + x;
     let s = ap.sample_corner_step.xy + ap.sample_corner_step.zw * vec2<f32>(f32(x) + 0.5, f32(y) + 0.5);
-    let seed = sampler32_pixel_seed(params.eye_seed ^ ANALYTIC_STREAM, pixel);
+    let n = ap.supersampling;
+    let seed = sampler32_pixel_seed(params.eye_seed ^ ANALYTIC_STREAM, (y / n) * (ap.width / n) + x / n);
+    let sub = (y % n) * n + x % n;
     var list = List((row * ap.width + x) * (ap.budget + 1u), 0u);
     var stats = PixelStats(0u, 0u, 0u, 0u);
     let tile = (y / ANALYTIC_TILE) * ap.tiles_x + x / ANALYTIC_TILE;
@@ -573,7 +582,7 @@ fn analytic_pixel(@builtin(global_invocation_id) gid: vec3<u32>) {
             let zk = linear_depth(ti, s, span.x, span.y);
             var iv = insert_opaque_clip(&list, Interval(span.x, span.y, zk.x, zk.y, 0.0, 0.0, 0.0, 0.0));
             if iv.te > iv.ts {
-                let sh = shade(ti, iv, s, seed, stats.kept);
+                let sh = shade(ti, iv, s, seed, stats.kept, sub);
                 iv.r = sh.color.x;
                 iv.g = sh.color.y;
                 iv.b = sh.color.z;

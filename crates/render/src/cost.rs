@@ -43,8 +43,12 @@ use crate::{RenderError, Renderer};
 
 /// Taps of the filters' sweep.
 pub const FILTER_TAPS: [u32; 4] = [3, 7, 15, 35];
-/// Interval budgets of the analytic rasterizer's sweep.
-pub const ANALYTIC_INTERVALS: [u32; 5] = [4, 8, 16, 32, 64];
+/// Interval budgets of the analytic rasterizer's sweep: the paper's Figure 15 rates (4, 6, 8, 10) and up to 64.
+pub const ANALYTIC_INTERVALS: [u32; 7] = [4, 6, 8, 10, 16, 32, 64];
+/// Sample points per pixel along each axis of the analytic rasterizer's supersampled points
+/// (at its default budget, the lighting samples divided by the sample points, so the shading
+/// work per pixel stays that of one sample point).
+pub const ANALYTIC_SUPERSAMPLING: [u32; 2] = [2, 4];
 /// Samples per instant of the accumulation buffer's sweep.
 pub const ACCUM_SAMPLES_PER_INSTANT: u32 = 4;
 /// Largest allowed `max_spp` and `reference_spp`.
@@ -208,6 +212,16 @@ pub fn sweep_settings(method: Method, preset: &Preset, max_spp: u32) -> Vec<Sett
                 value: intervals,
                 input_spp: top_level,
             })
+            .chain(ANALYTIC_SUPERSAMPLING.iter().map(|&n| Setting {
+                spec: MethodSpec {
+                    supersampling: Some(n),
+                    lighting_samples: Some((top_level / (n * n)).max(1)),
+                    ..MethodSpec::of(Method::Analytic)
+                },
+                knob: "supersampling",
+                value: n,
+                input_spp: top_level,
+            }))
             .collect(),
     }
 }
@@ -217,6 +231,9 @@ fn work_units(setting: &Setting, pixels: u64) -> u64 {
     let per_pixel = match setting.spec.kind {
         Method::Tracer => u64::from(setting.value),
         Method::Accum => u64::from(setting.value) * u64::from(setting.input_spp),
+        Method::Analytic if setting.knob == "supersampling" => {
+            u64::from(crate::analytic::DEFAULT_INTERVALS) * u64::from(setting.value).pow(2)
+        }
         Method::Mcguire | Method::Guertin | Method::Analytic => u64::from(setting.value),
     };
     per_pixel * pixels
@@ -636,7 +653,15 @@ mod tests {
         assert_eq!(guertin.len(), 3 * FILTER_TAPS.len());
         assert_eq!((guertin[0].input_spp, guertin[0].value, guertin[0].spec.taps), (1, 3, Some(3)));
         let analytic = sweep_settings(Method::Analytic, &p, 16);
-        assert_eq!(analytic.last().unwrap().spec.intervals, Some(64));
+        let budgets: Vec<_> = analytic.iter().filter(|s| s.knob == "intervals").collect();
+        assert_eq!(budgets.last().unwrap().spec.intervals, Some(64));
         assert_eq!(analytic[0].input_spp, 16);
+        // Supersampled last (the finest): 4 x 4 points share the 16 lighting samples.
+        let finest = analytic.last().unwrap();
+        assert_eq!(
+            (finest.knob, finest.spec.supersampling, finest.spec.lighting_samples),
+            ("supersampling", Some(4), Some(1))
+        );
+        assert_eq!(work_units(finest, 10), 8 * 16 * 10);
     }
 }

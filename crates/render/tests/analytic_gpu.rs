@@ -25,7 +25,8 @@ fn study_scene(width: u32, height: u32, spp: u32, zoom: f64) -> FrameScene {
     common::study_frame(width, height, spp, zoom)
 }
 
-const PARAMS: AnalyticParams = AnalyticParams { intervals: 8, tessellation: 64, lighting_samples: Some(2) };
+const PARAMS: AnalyticParams =
+    AnalyticParams { intervals: 8, tessellation: 64, lighting_samples: Some(2), supersampling: 1 };
 
 /// Per pixel, the f64 rasterizer's coverage of the sphere and of the floor (what the
 /// coverage kernel writes in red and green).
@@ -163,4 +164,24 @@ fn the_gpu_kernel_shades_like_its_twin() {
     let frame = gpu.render_frame(&s, &env, &params).unwrap();
     assert_eq!(frame.eyes[0].pixels, g.image.pixels);
     assert_eq!(frame.stats, raster_stats(&g.stats));
+}
+
+#[test]
+fn a_supersampled_gpu_frame_is_the_twins_larger_frame_averaged_in_blocks() {
+    let params = AnalyticParams { tessellation: 16, supersampling: 2, ..PARAMS };
+    let s = study_scene(32, 18, 2, 2.0);
+    let Some((gpu, env)) = gpu_and_env("a_supersampled_gpu_frame_is_the_twins_larger_frame_averaged_in_blocks", &s)
+    else {
+        return;
+    };
+    let frame = gpu.render_frame(&s, &env, &params).unwrap();
+    let large = render::analytic::supersample::scaled(&s, 2);
+    assert_eq!((large.views[0].camera.width, large.views[0].camera.height), (64, 36));
+    let t = twin(&large, env.tables(), &params, true);
+    let expected = render::analytic::supersample::downsample(&t.image, 2);
+    assert_eq!((frame.eyes[0].width, frame.eyes[0].height), (32, 18));
+    let (worst, off) = compare(&frame.eyes[0].pixels, &expected.pixels, 1e-3);
+    eprintln!("supersampled GPU frame vs the twin's: worst {worst:.2e}, {off} pixels over 1e-3");
+    assert!(off * 100 <= expected.pixels.len(), "{off} pixels differ");
+    assert_eq!(frame.stats.pixels, 64 * 36, "one interval list per sample point");
 }

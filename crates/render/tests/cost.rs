@@ -123,11 +123,21 @@ fn the_tracer_error_falls_as_one_over_sqrt_spp_and_every_finest_setting_approach
     }
     // Analytic rasterizer: its bias floor (tessellation, one shading per interval) is what
     // the largest budget reaches; the budget past 16 intervals changes it by under 5 %.
-    let analytic: Vec<_> = rows.iter().filter(|r| r.method == Method::Analytic).collect();
-    assert_eq!(analytic.len(), 5);
-    let (a16, a64) = (analytic[2].rmse.median, analytic[4].rmse.median);
+    let analytic: Vec<_> = rows.iter().filter(|r| r.method == Method::Analytic && r.knob == "intervals").collect();
+    assert_eq!(analytic.iter().map(|r| r.value).collect::<Vec<_>>(), render::cost::ANALYTIC_INTERVALS);
+    let (a16, a64) = (analytic[4].rmse.median, analytic[6].rmse.median);
     assert!((a64 - a16).abs() < 0.05 * a16, "{a16} vs {a64}");
     assert!(a64 < 5.0 * tracer[0].rmse.median);
+    // Supersampled, the same shading work per pixel spread over n x n points: the one
+    // point's aliasing goes, so 4 x 4 points beat one at the same budget.
+    let mut ss: Vec<_> = rows.iter().filter(|r| r.method == Method::Analytic && r.knob == "supersampling").collect();
+    ss.sort_by_key(|r| r.value);
+    assert_eq!(ss.iter().map(|r| r.value).collect::<Vec<_>>(), render::cost::ANALYTIC_SUPERSAMPLING);
+    eprintln!(
+        "analytic 8 intervals: one point {}, 2x2 {}, 4x4 {}",
+        analytic[2].rmse.median, ss[0].rmse.median, ss[1].rmse.median
+    );
+    assert!(ss[1].rmse.median < analytic[2].rmse.median, "{ss:?} vs {:?}", analytic[2]);
     // FLIP maps of the coarsest and finest settings beside the frames.
     let maps = dir.path().join("out/maps");
     assert!(maps.join("tracer-spp16-in16-f0000-r0-flip.png").exists());

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{L, analytic_coverage, coverage_scene, flat, scene, study_camera, uniform};
+use common::{L, coverage_scene, exact_coverage, flat, scene, study_camera, uniform};
 use glam::{DVec2, DVec3};
 use render::env::EnvironmentMap;
 use render::filters::SKY_DEPTH;
@@ -147,7 +147,7 @@ fn accumulation_buffer_converges_to_the_time_averaged_coverage() {
         let img = &frame.image;
         let mut partial = 0;
         for x in 0..img.width {
-            let expected = analytic_coverage(&s, x, 1);
+            let expected = exact_coverage(&s, x, 1);
             let measured = 1.0 - f64::from(img.get(x, 1)[0]) / L;
             // Monte Carlo over the pixel area at spp x K samples, plus the midpoint rule's
             // bound for an interval indicator sampled at K instants: 1/K.
@@ -169,7 +169,7 @@ fn accumulation_buffer_with_few_instants_strobes() {
     let spec = MethodSpec { instants: Some(2), ..MethodSpec::of(Method::Accum) };
     let img = render_with(&spec, &s).image;
     let coverage: Vec<f64> = (0..img.width).map(|x| 1.0 - f64::from(img.get(x, 1)[0]) / L).collect();
-    let analytic: Vec<f64> = (0..img.width).map(|x| analytic_coverage(&s, x, 1)).collect();
+    let analytic: Vec<f64> = (0..img.width).map(|x| exact_coverage(&s, x, 1)).collect();
     let gaps = (0..coverage.len()).filter(|&x| analytic[x] > 0.2 && coverage[x] < 0.02).count();
     assert!(gaps >= 5, "{gaps} gap pixels: {coverage:?}");
     // Elsewhere inside the streak a copy covers a pixel at one instant of two: 1/2.
@@ -227,7 +227,7 @@ fn filters_reproduce_the_time_averaged_coverage_of_a_moving_sphere() {
     // an 11-pixel streak on a 30-pixel disc. Each filter, from the G-buffer at the shutter's
     // centre alone, must spread the disc over the streak the closed form gives.
     let s = coverage_scene(2.238, 1.0, 16);
-    let analytic: Vec<f64> = (0..320).map(|x| analytic_coverage(&s, x, 1)).collect();
+    let analytic: Vec<f64> = (0..320).map(|x| exact_coverage(&s, x, 1)).collect();
     let sharp = row_coverage(
         &render_with(&MethodSpec::of(Method::Tracer), &{
             let mut c = s.clone();

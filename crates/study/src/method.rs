@@ -120,6 +120,11 @@ pub struct MethodSpec {
     /// Analytic rasterizer: lighting samples of each interval's one shading evaluation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lighting_samples: Option<u32>,
+    /// Analytic rasterizer: sample points per pixel along each axis, `n x n` at the centres
+    /// of the pixel's cells, each with its own interval list, box-filtered (1-8; 1, the
+    /// default, is the paper's one sample point at the pixel's centre).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub supersampling: Option<u32>,
 }
 
 impl MethodSpec {
@@ -151,6 +156,7 @@ impl MethodSpec {
             ("intervals", self.intervals.is_some(), ANALYTIC),
             ("tessellation", self.tessellation.is_some(), ANALYTIC),
             ("lighting_samples", self.lighting_samples.is_some(), ANALYTIC),
+            ("supersampling", self.supersampling.is_some(), ANALYTIC),
         ];
         written.into_iter().filter(|(_, set, _)| *set).map(|(k, _, m)| (k, m)).collect()
     }

@@ -351,6 +351,10 @@ fn method_settings_must_belong_to_their_method_and_lie_in_range() {
     assert!(msg.contains("key `factors.method[4].eta`: must lie in [0, 1], found 1.5"), "{msg}");
     let (_, msg, _) = load_err(&text.replace("taps = 35", "taps = 35\nintervals = 8"));
     assert!(msg.contains("key `factors.method[4].intervals`: applies to analytic only, not to `guertin`"), "{msg}");
+    let (_, msg, _) = load_err(&text.replace("taps = 35", "taps = 35\nsupersampling = 2"));
+    assert!(msg.contains("key `factors.method[4].supersampling`: applies to analytic only"), "{msg}");
+    let (_, msg, _) = load_err(&text.replace("intervals = 8", "intervals = 8\nsupersampling = 9"));
+    assert!(msg.contains("key `factors.method[5].supersampling`: must lie in 1..=8, found 9"), "{msg}");
     let (_, msg, _) = load_err(&text.replace("taps = 35", "taps = 0"));
     assert!(msg.contains("key `factors.method[4].taps`: must lie in 1..=1024, found 0"), "{msg}");
     let (_, msg, _) = load_err(&text.replace("kind = \"guertin\"", "kind = \"blur\""));

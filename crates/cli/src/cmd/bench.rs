@@ -2,6 +2,7 @@
 
 pub mod analysis;
 pub mod analytic;
+pub mod analytic_accuracy;
 pub mod filters;
 pub mod methods;
 pub mod playback;
@@ -16,6 +17,17 @@ pub struct FrameBench {
     /// Design file whose M3-S3-T5 benchmark frame is rendered.
     #[arg(long, default_value = "stimuli/navarro2011.toml")]
     design: std::path::PathBuf,
+}
+
+/// The benchmark frame's size (the analytic rasterizer's benchmarks).
+#[derive(clap::Args)]
+pub struct FrameSize {
+    /// Image width.
+    #[arg(long, default_value_t = 640, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 360, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: u32,
 }
 
 /// Arguments.
@@ -39,6 +51,8 @@ enum Which {
     Playback(playback::Args),
     /// Milliseconds per frame of the analytic rasterizer, intervals per pixel.
     Analytic(analytic::Args),
+    /// The analytic rasterizer's approximations: depth error histogram, tessellation error.
+    AnalyticAccuracy(analytic_accuracy::Args),
 }
 
 /// Runs the chosen benchmark.
@@ -50,5 +64,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Which::Analysis(a) => analysis::run(a),
         Which::Playback(a) => playback::run(a),
         Which::Analytic(a) => analytic::run(a),
+        Which::AnalyticAccuracy(a) => analytic_accuracy::run(a),
     }
 }

@@ -1,7 +1,7 @@
 //! The study scene as moving triangles in camera space: the rolling sphere tessellated into
 //! a UV sphere whose vertices move linearly from their positions at shutter open to those at
-//! shutter close (the paper's assumption: the rolling's rotation within one shutter is
-//! replaced by straight vertex paths), and the static floor, clipped to the camera's near
+//! shutter close (the paper's assumption), translating rigidly with the centre while shading
+//! applies the rotation ([`VertexPaths`] says why), and the static floor, clipped to the camera's near
 //! plane once, so none of its vertices ever has `w <= 0`.
 //!
 //! Camera space is `(x, y, w) = (d.right, d.up, d.forward)` with `d` the offset from the
@@ -148,8 +148,12 @@ pub fn unit_sphere(segments: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
     (vertices, tris)
 }
 
-/// Half the side of the floor square around the camera (metres): beyond it is sky.
-pub const FLOOR_EXTENT: f64 = 1000.0;
+/// Half the side of the floor square around the camera (metres): beyond it is sky. The
+/// tracer's floor is an infinite plane, whose horizon the square's far edge stands in for,
+/// `camera height / FLOOR_EXTENT` radians below it: 1e5 m keeps that gap near 1e-5 rad, a
+/// hundredth of a study pixel (at 1 km the whole horizon row showed sky instead of floor).
+/// Edge equations are homogeneous, so the far vertices cost no precision.
+pub const FLOOR_EXTENT: f64 = 1.0e5;
 /// The near plane the floor is clipped to (metres of view depth).
 pub const NEAR: f64 = 1e-3;
 
@@ -172,15 +176,41 @@ pub fn clip_near(poly: &[DVec3], near: f64) -> Vec<DVec3> {
     out
 }
 
-/// The triangles of `scene` seen from `camera`: the sphere tessellated with `segments`
-/// around its equator, moving between shutter open and close, then the floor.
-pub fn scene_triangles(scene: &FrameScene, camera: &CameraFrame, segments: u32) -> Vec<MovingTriangle> {
+/// How the sphere's vertices move within one exposure (each along a straight path, as the
+/// paper assumes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VertexPaths {
+    /// Rigidly with the centre, in the pose of shutter open: straight paths are exact for
+    /// the rolling's translation, so the silhouette differs from the true sphere's by the
+    /// tessellation alone. The rolling's rotation is applied where it shows, in shading,
+    /// which projects each shaded point onto the true sphere in its orientation at the
+    /// interval's instant (`super::shade`). The rasterizer's geometry.
+    Translated,
+    /// From their rolled positions at shutter open to those at close: the rotation by the
+    /// angle `a = speed x shutter / radius` replaced by chords, which pass `cos(a / 2)` of the
+    /// radius from the centre, so the polygon shrinks mid-shutter whatever the tessellation.
+    /// Kept to measure that cost (`super::accuracy::tessellation_error`).
+    RollingChords,
+}
+
+/// The sphere of `scene` seen from `camera`, tessellated with `segments` around its equator,
+/// moving between shutter open and close along `paths`.
+pub fn sphere_triangles(
+    scene: &FrameScene,
+    camera: &CameraFrame,
+    segments: u32,
+    paths: VertexPaths,
+) -> Vec<MovingTriangle> {
     let sphere = &scene.sphere;
     let (open, close) = (scene.shutter.open, scene.shutter.close.max(scene.shutter.open));
     let c_open = sphere.centre_at(open);
     // The centre moves in a straight line within one exposure (no wrap inside a shutter).
     let c_close = c_open + sphere.velocity * (close - open);
-    let (q_open, q_close) = (sphere.orientation_at(open), sphere.orientation_at(close));
+    let q_open = sphere.orientation_at(open);
+    let q_close = match paths {
+        VertexPaths::Translated => q_open,
+        VertexPaths::RollingChords => sphere.orientation_at(close),
+    };
     let (unit, tris) = unit_sphere(segments);
     let at_open: Vec<DVec3> = unit.iter().map(|&v| camera.to_camera(c_open + q_open * (v * sphere.radius))).collect();
     let at_close: Vec<DVec3> = if scene.needs_time_sampling() {
@@ -188,15 +218,29 @@ pub fn scene_triangles(scene: &FrameScene, camera: &CameraFrame, segments: u32) 
     } else {
         at_open.clone()
     };
-    let mut out: Vec<MovingTriangle> = tris
-        .iter()
+    tris.iter()
         .map(|t| MovingTriangle {
             open: t.map(|i| at_open[i as usize]),
             close: t.map(|i| at_close[i as usize]),
             surface: SurfaceKind::Sphere,
             two_sided: false,
         })
-        .collect();
+        .collect()
+}
+
+/// The triangles of `scene` seen from `camera`: the sphere tessellated with `segments`
+/// around its equator, translating over the shutter ([`VertexPaths::Translated`]), then the
+/// floor.
+pub fn scene_triangles(scene: &FrameScene, camera: &CameraFrame, segments: u32) -> Vec<MovingTriangle> {
+    let mut out = sphere_triangles(scene, camera, segments, VertexPaths::Translated);
+    out.extend(floor_triangles(scene, camera));
+    out
+}
+
+/// The floor of `scene` seen from `camera`, a square of [`FLOOR_EXTENT`] clipped to the near
+/// plane.
+pub fn floor_triangles(scene: &FrameScene, camera: &CameraFrame) -> Vec<MovingTriangle> {
+    let mut out = Vec::new();
     let h = scene.floor.height;
     let (ox, oz) = (camera.origin.x, camera.origin.z);
     let e = FLOOR_EXTENT;

@@ -13,13 +13,17 @@
 //! [`frame`] (tiles in parallel, deterministic), and [`bench`] (milliseconds per frame).
 //! [`gpu`] is the same rasterizer as a WGSL compute kernel (the paper's future work), with
 //! its f32 CPU twin; `render::Renderer` uses it wherever a GPU is open.
-//! [`accuracy`] holds the measurements the tests check (the depth approximation's error
-//! histogram of the paper's Figure 10).
+//! [`sphere`] is the exact visibility of the untessellated moving sphere, the closed form the
+//! triangles approximate. [`accuracy`] holds the measurements the tests check and
+//! `blurlab bench analytic-accuracy` draws (the depth approximation's error histogram of the
+//! paper's Figure 10, the tessellation's coverage error).
 //!
 //! Settings (`study::method::MethodSpec`): `intervals`, the per-pixel budget (4-64, default
 //! [`DEFAULT_INTERVALS`]); `tessellation`, the sphere's segments around its equator (at
 //! least 3, default [`DEFAULT_TESSELLATION`]); `lighting_samples` per shading evaluation
-//! (default: the frame's samples per pixel, so the A levels keep their meaning).
+//! (default: the frame's samples per pixel, so the A levels keep their meaning);
+//! `supersampling`, sample points per pixel along each axis ([`supersample`]; default 1, the
+//! paper's one point at the pixel's centre).
 
 pub mod accuracy;
 pub mod bench;
@@ -30,6 +34,8 @@ pub mod gpu;
 pub mod interval;
 pub mod resolve;
 pub mod shade;
+pub mod sphere;
+pub mod supersample;
 
 use glam::DVec3;
 use study::method::MethodSpec;
@@ -53,6 +59,8 @@ pub const DEFAULT_TESSELLATION: u32 = 64;
 pub const INTERVALS_RANGE: std::ops::RangeInclusive<u32> = 4..=64;
 /// The largest tessellation (the design's own limit).
 pub const MAX_TESSELLATION: u32 = 4096;
+/// The supersampling's bounds (sample points per pixel along each axis).
+pub const SUPERSAMPLING_RANGE: std::ops::RangeInclusive<u32> = 1..=8;
 
 /// Settings a frame could not be rendered with.
 #[derive(Debug, thiserror::Error)]
@@ -71,11 +79,18 @@ pub struct AnalyticParams {
     pub tessellation: u32,
     /// Lighting samples per shading evaluation; `None`: the frame's samples per pixel.
     pub lighting_samples: Option<u32>,
+    /// Sample points per pixel along each axis ([`supersample`]); 1: the pixel's centre.
+    pub supersampling: u32,
 }
 
 impl Default for AnalyticParams {
     fn default() -> Self {
-        AnalyticParams { intervals: DEFAULT_INTERVALS, tessellation: DEFAULT_TESSELLATION, lighting_samples: None }
+        AnalyticParams {
+            intervals: DEFAULT_INTERVALS,
+            tessellation: DEFAULT_TESSELLATION,
+            lighting_samples: None,
+            supersampling: 1,
+        }
     }
 }
 
@@ -86,6 +101,7 @@ impl AnalyticParams {
             intervals: spec.intervals.unwrap_or(DEFAULT_INTERVALS),
             tessellation: spec.tessellation.unwrap_or(DEFAULT_TESSELLATION),
             lighting_samples: spec.lighting_samples,
+            supersampling: spec.supersampling.unwrap_or(1),
         };
         p.check()?;
         Ok(p)
@@ -100,6 +116,12 @@ impl AnalyticParams {
             return Err(AnalyticError::Settings(format!(
                 "tessellation must lie in 3..={MAX_TESSELLATION}, found {}",
                 self.tessellation
+            )));
+        }
+        if !SUPERSAMPLING_RANGE.contains(&self.supersampling) {
+            return Err(AnalyticError::Settings(format!(
+                "supersampling must lie in 1..=8, found {}",
+                self.supersampling
             )));
         }
         if self.lighting_samples == Some(0) {
@@ -132,6 +154,9 @@ pub fn render_frame(
     let lighting = params.lighting_samples.unwrap_or(scene.samples_per_pixel).max(1);
     let mut eyes = Vec::with_capacity(scene.views.len());
     let mut stats = RasterStats::default();
+    let n = params.supersampling;
+    let scaled = supersample::scaled(scene, n);
+    let scene = &*scaled;
     for view in &scene.views {
         let cam = &view.camera;
         let camera = CameraFrame::new(cam);
@@ -143,8 +168,10 @@ pub fn render_frame(
             max_bounces: scene.integrator.max_bounces,
             russian_roulette_from: scene.integrator.russian_roulette_from,
         };
-        let pixel_angle = CameraRays::new(cam).pixel_angle;
-        let shading = Shading::new(tracer, scene, camera, view.seed, cam.width, pixel_angle, lighting);
+        // Texture footprints are the output pixel's, as the tracer filters a pixel's samples.
+        let pixel_angle = CameraRays::new(cam).pixel_angle * f64::from(n);
+        let mut shading = Shading::new(tracer, scene, camera, view.seed, cam.width, pixel_angle, lighting);
+        shading.supersampling = n;
         let (pixels, st) = render_image(
             &triangles,
             &camera,
@@ -156,7 +183,7 @@ pub fn render_frame(
             |s| shading.background(s),
         );
         stats.add(&st);
-        eyes.push(LinearImage { width: cam.width, height: cam.height, pixels });
+        eyes.push(supersample::downsample(&LinearImage { width: cam.width, height: cam.height, pixels }, n));
     }
     Ok(AnalyticFrame { eyes, lighting_samples: stats.shaded * u64::from(lighting), stats, gpu_seconds: None })
 }

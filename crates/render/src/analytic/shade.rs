@@ -35,6 +35,10 @@ pub struct Shading<'a> {
     pub pixel_angle: f64,
     /// Lighting samples per evaluation.
     pub lighting_samples: u32,
+    /// Sample points per output pixel along each axis (`super::supersample`): the image
+    /// shaded is the supersampled one, and each `n x n` block's points draw consecutive
+    /// samples of their output pixel's one sequence, so together they stay stratified.
+    pub supersampling: u32,
     /// Sphere centre at shutter open and its motion over the shutter.
     centre: (DVec3, DVec3),
 }
@@ -53,7 +57,17 @@ impl<'a> Shading<'a> {
         let (open, close) = (scene.shutter.open, scene.shutter.close.max(scene.shutter.open));
         let c0 = scene.sphere.centre_at(open);
         let motion = if scene.needs_time_sampling() { scene.sphere.velocity * (close - open) } else { DVec3::ZERO };
-        Shading { tracer, scene, camera, seed, width, pixel_angle, lighting_samples, centre: (c0, motion) }
+        Shading {
+            tracer,
+            scene,
+            camera,
+            seed,
+            width,
+            pixel_angle,
+            lighting_samples,
+            supersampling: 1,
+            centre: (c0, motion),
+        }
     }
 
     /// The radiance the environment sends along sample point `s`'s ray (no surface).
@@ -113,12 +127,15 @@ impl<'a> Shading<'a> {
         };
         let ray = Ray { origin, dir: self.camera.direction(s) };
         let dims = dim::BOUNCE_BASE + dim::PER_BOUNCE * self.scene.integrator.max_bounces;
-        let mut sampler = PixelSampler::new(mix(self.seed, &[u64::from(index), 0xA7A1]), x, y, self.width, dims);
+        let k = self.supersampling.max(1);
+        let mut sampler =
+            PixelSampler::new(mix(self.seed, &[u64::from(index), 0xA7A1]), x / k, y / k, self.width / k, dims);
         let mut sum = DVec3::ZERO;
         let mut bad = 0;
         let n = self.lighting_samples.max(1);
+        let first = ((y % k) * k + x % k) * n;
         for j in 0..n {
-            sampler.start_sample(j);
+            sampler.start_sample(first + j);
             let l = self.tracer.radiance_from_hit(ray, Some(hit), &sphere, &sampler, self.pixel_angle);
             if l.is_finite() {
                 sum += l;

@@ -1,8 +1,7 @@
 //! Scenes shared by the CPU and GPU tracer tests.
 #![allow(dead_code)]
 
-use glam::{DQuat, DVec2, DVec3};
-use render::numeric::solve_quadratic;
+use glam::{DQuat, DVec3};
 use study::ids::{StimulusId, View};
 use study::scene::{
     Camera, Environment, Exposure, EyeView, Floor, FrameScene, Integrator, Lighting, Material, RollingSphere, Shutter,
@@ -64,46 +63,11 @@ pub fn coverage_scene(speed: f64, shutter_fraction: f64, spp: u32) -> FrameScene
     s
 }
 
-/// Analytic coverage of the row-1 pixel at column x: for each of a fine grid of points
-/// in the pixel, the exact time interval in which the moving sphere covers its ray,
-/// intersected with the shutter.
-pub fn analytic_coverage(s: &FrameScene, x: u32, y: u32) -> f64 {
-    let cam = &s.views[0].camera;
-    let (open, close) = (s.shutter.open, s.shutter.close);
-    let v = s.sphere.velocity;
-    let r = s.sphere.radius;
-    let k = 24;
-    let mut total = 0.0;
-    for i in 0..k {
-        for j in 0..k {
-            let p = DVec2::new(f64::from(x) + (i as f64 + 0.5) / k as f64, f64::from(y) + (j as f64 + 0.5) / k as f64);
-            let d = cam.ray_direction(p);
-            // Distance^2 from the ray's line to c(t) = c0 + v t: |w0 + v t - ((w0 + v t).d) d|^2,
-            // a quadratic a t^2 + b t + c in t.
-            let w0 = s.sphere.start - cam.position;
-            let pw = w0 - d * w0.dot(d);
-            let pv = v - d * v.dot(d);
-            let (a, b, c) = (pv.dot(pv), 2.0 * pw.dot(pv), pw.dot(pw) - r * r);
-            let covered = if close > open {
-                match solve_quadratic(a, b, c) {
-                    Some((t0, t1)) if a != 0.0 && t0 < t1 => (t1.min(close) - t0.max(open)).max(0.0) / (close - open),
-                    // Still relative to the ray (a = 0), or grazing it: covered throughout or never.
-                    _ => {
-                        if c < 0.0 {
-                            1.0
-                        } else {
-                            0.0
-                        }
-                    }
-                }
-            } else {
-                let t = open;
-                if a * t * t + b * t + c < 0.0 { 1.0 } else { 0.0 }
-            };
-            total += covered;
-        }
-    }
-    total / (k * k) as f64
+/// The exact coverage of pixel `(x, y)` by the moving sphere over area and shutter time:
+/// the analytic rasterizer's closed form for the untessellated sphere
+/// (`render::analytic::sphere`), on a 24 x 24 lattice of points in the pixel.
+pub fn exact_coverage(s: &FrameScene, x: u32, y: u32) -> f64 {
+    render::analytic::sphere::pixel_coverage(s, 0, x, y, 24)
 }
 
 /// The built-in default environment at a small size.
@@ -122,14 +86,14 @@ pub fn furnace_scene() -> FrameScene {
     s
 }
 
-/// Checks row 1 of a render of `coverage_scene(.., spp)` against [`analytic_coverage`]
+/// Checks row 1 of a render of `coverage_scene(.., spp)` against [`exact_coverage`]
 /// pixel by pixel: within 3 binomial standard errors of a coverage estimate from `spp`
 /// stratified samples (at most `sqrt(c (1 - c) / spp)`) plus 0.01, and with at least 16
 /// partially covered pixels.
 pub fn assert_coverage_matches(s: &FrameScene, img: &render::io::LinearImage, spp: u32) {
     let mut compared = 0;
     for x in 0..img.width {
-        let expected = analytic_coverage(s, x, 1);
+        let expected = exact_coverage(s, x, 1);
         let measured = 1.0 - f64::from(img.get(x, 1)[0]) / L;
         let se = (expected * (1.0 - expected) / f64::from(spp)).sqrt();
         assert!((measured - expected).abs() < 3.0 * se + 0.01, "x {x}: measured {measured}, analytic {expected}");

@@ -293,6 +293,7 @@ impl Design {
             count("tile", m.tile, 256)?;
             count("tessellation", m.tessellation, 4096)?;
             count("lighting_samples", m.lighting_samples, 1 << 16)?;
+            count("supersampling", m.supersampling, 8)?;
             if let Some(v) = m.intervals
                 && !(4..=64).contains(&v)
             {

@@ -13,12 +13,8 @@ use crate::cmd::stimuli::load_design;
 pub struct Args {
     #[command(flatten)]
     frame: super::FrameBench,
-    /// Image width.
-    #[arg(long, default_value_t = 640, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    width: u32,
-    /// Image height.
-    #[arg(long, default_value_t = 360, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    height: u32,
+    #[command(flatten)]
+    size: super::FrameSize,
     /// Per-pixel interval budget (4-64).
     #[arg(long, default_value_t = 8)]
     intervals: u32,
@@ -28,6 +24,9 @@ pub struct Args {
     /// Lighting samples per shading evaluation.
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]
     lighting_samples: u32,
+    /// Sample points per pixel along each axis (1-8).
+    #[arg(long, default_value_t = 1)]
+    supersampling: u32,
     /// Timed rounds (after one warm-up).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
     rounds: u32,
@@ -44,11 +43,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         intervals: args.intervals,
         tessellation: args.tessellation,
         lighting_samples: Some(args.lighting_samples),
+        supersampling: args.supersampling,
     };
     params.check().map_err(|e| BadInput(e.to_string()))?;
     let opts = BenchOptions {
-        width: args.width,
-        height: args.height,
+        width: args.size.width,
+        height: args.size.height,
         params,
         spp: args.lighting_samples,
         rounds: args.rounds,
@@ -61,8 +61,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!(
             "analytic: {:.1} ms per {}x{} frame (mean of {}), {} intervals per pixel, {:.2} offered on average, {} at most",
             result["ms_per_frame"]["mean"].as_f64().unwrap_or(f64::NAN),
-            args.width,
-            args.height,
+            args.size.width,
+            args.size.height,
             args.rounds,
             args.intervals,
             result["intervals_per_pixel"]["mean"].as_f64().unwrap_or(f64::NAN),

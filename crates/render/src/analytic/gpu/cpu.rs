@@ -403,7 +403,8 @@ fn camera_ray(ap: &RasterParams, s: Vec2) -> Vec3 {
     xyz(ap.forward) + xyz(ap.right) * s.x + xyz(ap.up) * s.y
 }
 
-fn shade(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2, seed: u32, index: u32) -> (Vec3, u32) {
+#[allow(clippy::too_many_arguments)]
+fn shade(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2, seed: u32, index: u32, sub: u32) -> (Vec3, u32) {
     if !k.shade {
         return if tri.flags[0] == SPHERE { (Vec3::X, 0) } else { (Vec3::Y, 0) };
     }
@@ -432,8 +433,9 @@ fn shade(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2, seed: u32
     let dir = normalize3(camera_ray(ap, s));
     let mut sum = Vec3::ZERO;
     let mut bad = 0;
+    let first = (index * ap.supersampling * ap.supersampling + sub) * ap.lighting;
     for j in 0..ap.lighting {
-        let l = radiance_from(p, &k.spec, k.env, &sphere, seed, index * ap.lighting + j, dir, hit);
+        let l = radiance_from(p, &k.spec, k.env, &sphere, seed, first + j, dir, hit);
         if is_finite3(l) {
             sum += l;
         } else {
@@ -448,10 +450,11 @@ fn shade(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2, seed: u32
 pub fn analytic_pixel(k: &Kernel<'_>, x: u32, y: u32) -> ([f32; 4], PixelStats, Vec<GpuInterval>) {
     let (prep, ap) = (k.prepared, &k.prepared.raster);
     let p = &prep.frame;
-    let pixel = y * ap.width + x;
     let cs = ap.sample_corner_step;
     let s = Vec2::new(cs[0], cs[1]) + Vec2::new(cs[2], cs[3]) * Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-    let seed = pixel_seed(p.eye_seed ^ ANALYTIC_STREAM, pixel);
+    let n = ap.supersampling;
+    let seed = pixel_seed(p.eye_seed ^ ANALYTIC_STREAM, (y / n) * (ap.width / n) + x / n);
+    let sub = (y % n) * n + x % n;
     let mut list: Vec<GpuInterval> = Vec::with_capacity(ap.budget as usize + 1);
     let mut stats = PixelStats::default();
     let tile = ((y / super::TILE) * ap.tiles_x + x / super::TILE) as usize;
@@ -469,7 +472,7 @@ pub fn analytic_pixel(k: &Kernel<'_>, x: u32, y: u32) -> ([f32; 4], PixelStats, 
             if iv.te <= iv.ts {
                 continue;
             }
-            let (c, bad) = shade(k, tri, &iv, s, seed, stats.kept);
+            let (c, bad) = shade(k, tri, &iv, s, seed, stats.kept, sub);
             (iv.r, iv.g, iv.b) = (c.x, c.y, c.z);
             insert_sorted(&mut list, iv);
             stats.kept += 1;

@@ -14,7 +14,7 @@ use study::scene::FrameScene;
 
 use super::{ANALYTIC_STREAM, GpuInterval, PixelStats, Prepared};
 use crate::analytic::frame::RasterStats;
-use crate::analytic::{AnalyticError, AnalyticFrame, AnalyticParams};
+use crate::analytic::{AnalyticError, AnalyticFrame, AnalyticParams, supersample};
 use crate::io::LinearImage;
 use crate::tracer::gpu::params::{ParamsError, Specialisation};
 use crate::tracer::gpu::{GpuEnvironment, assembler};
@@ -174,12 +174,14 @@ impl GpuAnalytic {
         let mut eyes = Vec::with_capacity(scene.views.len());
         let mut stats = RasterStats::default();
         let mut gpu_seconds = Some(0.0);
-        for view in &scene.views {
-            let prepared = Prepared::new(scene, view, env.tables(), params)?;
+        let n = params.supersampling;
+        let scaled = supersample::scaled(scene, n);
+        for view in &scaled.views {
+            let prepared = Prepared::new(&scaled, view, env.tables(), params)?;
             let v = self.render_view(&prepared, env, spec, true)?;
             stats.add(&raster_stats(&v.stats));
             gpu_seconds = gpu_seconds.filter(|_| v.timing_source == TimingSource::Timestamps).map(|t| t + v.seconds);
-            eyes.push(v.image);
+            eyes.push(supersample::downsample(&v.image, n));
         }
         let lighting = u64::from(params.lighting_samples.unwrap_or(scene.samples_per_pixel).max(1));
         Ok(AnalyticFrame { eyes, lighting_samples: stats.shaded * lighting, stats, gpu_seconds })

@@ -66,6 +66,11 @@ pub struct RasterParams {
     pub lighting: u32,
     /// Tiles per row.
     pub tiles_x: u32,
+    /// Sample points per output pixel along each axis (the image is the supersampled one:
+    /// its `n x n` blocks are output pixels, which own the shading's sample sequences).
+    pub supersampling: u32,
+    /// Padding to 16 bytes.
+    pub pad: [u32; 3],
 }
 
 /// A moving triangle as the kernel reads it (`Triangle` in WGSL).
@@ -149,8 +154,11 @@ impl Prepared {
         env: &EnvTables,
         params: &AnalyticParams,
     ) -> Result<Self, ParamsError> {
-        let frame = FrameParams::new(scene, view, env)?;
+        let mut frame = FrameParams::new(scene, view, env)?;
         let cam = &view.camera;
+        // Texture footprints are the output pixel's, as the tracer filters a pixel's samples.
+        let n = params.supersampling.max(1);
+        frame.cam_origin[3] = (crate::tracer::camera::CameraRays::new(cam).pixel_angle * f64::from(n)) as f32;
         let camera = CameraFrame::new(cam);
         let (width, height) = (cam.width, cam.height);
         let binned = bin(&scene_triangles(scene, &camera, params.tessellation), &camera, width, height);
@@ -187,6 +195,8 @@ impl Prepared {
             range: SEARCH_RANGE_OPAQUE as u32,
             lighting,
             tiles_x: tw,
+            supersampling: params.supersampling.max(1),
+            pad: [0; 3],
         };
         Ok(Prepared { frame, raster, triangles, bins })
     }
@@ -224,7 +234,7 @@ mod tests {
 
     #[test]
     fn layouts_match_the_wgsl_structs() {
-        assert_eq!(std::mem::size_of::<RasterParams>(), 96);
+        assert_eq!(std::mem::size_of::<RasterParams>(), 112);
         assert_eq!(std::mem::size_of::<GpuTriangle>(), 15 * 16 + 32);
         assert_eq!(std::mem::size_of::<GpuInterval>(), 32);
         assert_eq!(std::mem::size_of::<PixelStats>(), 16);
