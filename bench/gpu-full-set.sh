@@ -61,9 +61,10 @@ log "benchmark ($bin, spp $spp)"
 log "filters (bench filters: McGuire 2012 and Guertin 2014 at 1280x720, N = 35)"
 "$bin" bench filters --device gpu --json --rounds "$((rounds * 10))" >"$out/filters.json"
 
-log "analytic rasterizer (bench analytic --gpu: 640x360, 8 intervals, 1 and 4 lighting samples)"
+log "analytic rasterizer (bench analytic --gpu: 640x360, 8 intervals, 1 and 4 lighting samples; 4 x 4 points per pixel)"
 "$bin" bench analytic --gpu --json --lighting-samples 1 --rounds "$rounds" >"$out/analytic-1.json"
 "$bin" bench analytic --gpu --json --lighting-samples 4 --rounds "$rounds" >"$out/analytic-4.json"
+"$bin" bench analytic --gpu --json --lighting-samples 1 --supersampling 4 --rounds "$rounds" >"$out/analytic-4x4.json"
 
 calc() { awk "BEGIN { printf \"%.3f\", $1 }"; }
 
@@ -100,6 +101,7 @@ cat <<EOF | tee "$out/result.json"
   "filters": $(cat "$out/filters.json"),
   "analytic_1_lighting_sample": $(cat "$out/analytic-1.json"),
   "analytic_4_lighting_samples": $(cat "$out/analytic-4.json"),
+  "analytic_4x4_points_1_lighting_sample": $(cat "$out/analytic-4x4.json"),
   "slice": {
     "sequences": "M3-S3-T5, levels A1-A5, mono and stereo, every frame, PNGs written",
     "note": "full_set_bound_minutes: 45 cells times this one, the most expensive",

@@ -199,7 +199,10 @@ pub fn samples_cost(method: &MethodSpec, spp: u32) -> u64 {
             k * method.samples_per_instant.map_or(spp.div_ceil(k), u64::from)
         }
         Method::Mcguire | Method::Guertin => spp + u64::from(method.taps.unwrap_or(32)).div_ceil(8),
-        Method::Analytic => method.lighting_samples.map_or(spp, u64::from).max(1),
+        Method::Analytic => {
+            let points = u64::from(method.supersampling.unwrap_or(1).max(1)).pow(2);
+            method.lighting_samples.map_or(spp, u64::from).max(1) * points
+        }
     }
 }
 
@@ -1177,6 +1180,11 @@ mod tests {
         let mut guertin = MethodSpec::of(Method::Guertin);
         guertin.taps = Some(35);
         assert_eq!(samples_cost(&guertin, 10), 15);
+        let mut analytic = MethodSpec::of(Method::Analytic);
+        assert_eq!(samples_cost(&analytic, 10), 10);
+        analytic.supersampling = Some(4);
+        analytic.lighting_samples = Some(2);
+        assert_eq!(samples_cost(&analytic, 10), 32);
     }
 
     #[test]

@@ -68,6 +68,8 @@ pub fn run(design: &Design, opts: &BenchOptions) -> Result<Value, String> {
         "lighting_samples": opts.params.lighting_samples.unwrap_or(opts.spp),
         "threads": rayon::current_num_threads(),
         "ms_per_frame": { "mean": mean, "best": best, "rounds": ms },
+        "supersampling": opts.params.supersampling,
+        // Per sample point: with supersampling, n x n of them per pixel.
         "intervals_per_pixel": { "mean": st.mean_intervals(), "max": st.max_intervals },
         "shaded_intervals": st.shaded,
         "merges": st.merges,
@@ -117,6 +119,8 @@ fn run_gpu(
         "ms_per_frame_wall": ms_stats(&wall),
         "ms_per_frame_timestamps": if stamps.is_empty() { Value::Null } else { ms_stats(&stamps) },
         "cpu_over_gpu_wall": cpu_mean_ms / wall_mean,
+        "supersampling": opts.params.supersampling,
+        // Per sample point: with supersampling, n x n of them per pixel.
         "intervals_per_pixel": { "mean": st.mean_intervals(), "max": st.max_intervals },
         "shaded_intervals": st.shaded,
         "merges": st.merges,
