@@ -38,10 +38,7 @@ fn f64_coverage(s: &FrameScene, params: &AnalyticParams) -> Vec<[f64; 2]> {
     for y in 0..cam.height {
         for x in 0..cam.width {
             let sp = camera.sample(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
-            let here = binned.iter().filter(|b| {
-                let [x0, x1, y0, y1] = b.bounds;
-                x >= x0 && x < x1 && y >= y0 && y < y1
-            });
+            let here = binned.iter().filter(|b| b.covers(x, y));
             let mut stats = RasterStats::default();
             let list =
                 rasterize_sample(here, sp, params.intervals as usize, SEARCH_RANGE_OPAQUE, &mut stats, |b, _, _| {

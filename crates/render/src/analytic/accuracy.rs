@@ -59,9 +59,7 @@ pub fn depth_error_histogram(
         for y in (0..cam.height).step_by(stride as usize) {
             for x in (0..cam.width).step_by(stride as usize) {
                 let s = camera.sample(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
-                for b in
-                    binned.iter().filter(|b| x >= b.bounds[0] && x < b.bounds[1] && y >= b.bounds[2] && y < b.bounds[3])
-                {
+                for b in binned.iter().filter(|b| b.covers(x, y)) {
                     for &(ts, te) in b.setup.visibility(s).spans() {
                         let e = b.setup.depth_error(s, ts, te);
                         let d = if e > 0.0 { e.log10().floor() as i32 } else { i32::MIN };
@@ -113,19 +111,18 @@ pub fn tessellation_error(
         let tris = sphere_triangles(scene, &camera, segments, paths);
         let binned = bin(&tris, &camera, cam.width, cam.height);
         let budget = *super::INTERVALS_RANGE.end() as usize;
+        let true_sphere = sphere::MovingSphere::of(scene);
         let mut stats = RasterStats::default();
         for y in (0..cam.height).step_by(stride.max(1) as usize) {
             for x in (0..cam.width).step_by(stride.max(1) as usize) {
                 let pixel = DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5);
-                let here = binned
-                    .iter()
-                    .filter(|b| x >= b.bounds[0] && x < b.bounds[1] && y >= b.bounds[2] && y < b.bounds[3]);
+                let here = binned.iter().filter(|b| b.covers(x, y));
                 let list =
                     rasterize_sample(here, camera.sample(pixel), budget, SEARCH_RANGE_OPAQUE, &mut stats, |_, _, _| {
                         ([1.0; 3], 0)
                     });
                 let tessellated = resolve_opaque(&list, [0.0; 3]).1;
-                let exact = sphere::sample_coverage(scene, view, pixel);
+                let exact = true_sphere.coverage(cam.position, cam.ray_direction(pixel));
                 if tessellated > 0.0 || exact > 0.0 {
                     let d = tessellated - exact;
                     n += 1;

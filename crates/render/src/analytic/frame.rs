@@ -66,6 +66,14 @@ pub struct Binned {
     pub bounds: [u32; 4],
 }
 
+impl Binned {
+    /// Whether pixel `(x, y)` lies within its bounds.
+    pub fn covers(&self, x: u32, y: u32) -> bool {
+        let [x0, x1, y0, y1] = self.bounds;
+        x >= x0 && x < x1 && y >= y0 && y < y1
+    }
+}
+
 /// The pixel bounds of `tri`'s motion in a `width` x `height` image of `camera`, or `None`
 /// when it is behind the eye throughout.
 pub fn pixel_bounds(tri: &MovingTriangle, camera: &CameraFrame, width: u32, height: u32) -> Option<[u32; 4]> {
@@ -212,10 +220,7 @@ where
             for y in y0..y1 {
                 for x in x0..x1 {
                     let s = camera.sample(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
-                    let here = list.iter().map(|&i| &binned[i as usize]).filter(|b| {
-                        let [bx0, bx1, by0, by1] = b.bounds;
-                        x >= bx0 && x < bx1 && y >= by0 && y < by1
-                    });
+                    let here = list.iter().map(|&i| &binned[i as usize]).filter(|b| b.covers(x, y));
                     let ivs = rasterize_sample(here, s, budget, range, &mut stats, |b, iv, index| {
                         shade(b, iv, s, x, y, index)
                     });
