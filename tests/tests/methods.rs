@@ -157,3 +157,29 @@ fn render_frame_renders_with_each_method_and_names_a_missing_method_level() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("with the analytic"));
 }
+
+#[test]
+fn the_analytic_rasterizers_accuracy_is_written_and_its_bad_settings_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("accuracy");
+    let small = ["--width", "64", "--height", "36", "--tessellations", "8,32"];
+    let mut args = vec!["bench", "analytic-accuracy", "--out", out_dir.to_str().unwrap()];
+    args.extend_from_slice(&small);
+    let out = run(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for f in ["accuracy.json", "depth-error.csv", "depth-error.png", "depth-error.svg", "tessellation.csv"] {
+        assert!(out_dir.join(f).exists(), "{f} missing");
+    }
+    let csv = std::fs::read_to_string(out_dir.join("tessellation.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 * 2, "{csv}");
+    assert!(csv.starts_with("paths,segments,samples,max,mean,bias\ntranslated,8,"), "{csv}");
+
+    let out = run(&["bench", "analytic-accuracy", "--tessellations", "16,2"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--tessellation(s): 2 is outside 3..=4096"), "{err}");
+    let out = run(&["bench", "analytic", "--supersampling", "9", "--width", "8", "--height", "8"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("supersampling must lie in 1..=8, found 9"), "{err}");
+}

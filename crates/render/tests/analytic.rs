@@ -633,6 +633,9 @@ fn the_renderer_dispatches_analytic_and_refuses_bad_settings() {
     assert!(e.contains("intervals must lie in 4..=64, found 3"), "{e}");
     let bad = MethodSpec { tessellation: Some(2), ..MethodSpec::of(Method::Analytic) };
     assert!(render::Renderer::cpu(&env).render(&bad, &s).is_err());
+    let bad = MethodSpec { supersampling: Some(0), ..MethodSpec::of(Method::Analytic) };
+    let e = render::Renderer::cpu(&env).render(&bad, &s).unwrap_err().to_string();
+    assert!(e.contains("supersampling must lie in 1..=8, found 0"), "{e}");
     // The scene's triangles: the tessellated sphere (64 x 32 segments) and the floor.
     let camera = CameraFrame::new(&s.views[0].camera);
     let tris = scene_triangles(&s, &camera, 64);
