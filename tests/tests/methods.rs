@@ -162,7 +162,20 @@ fn render_frame_renders_with_each_method_and_names_a_missing_method_level() {
 fn the_analytic_rasterizers_accuracy_is_written_and_its_bad_settings_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let out_dir = dir.path().join("accuracy");
-    let small = ["--width", "64", "--height", "36", "--tessellations", "8,32"];
+    let small = [
+        "--width",
+        "64",
+        "--height",
+        "36",
+        "--tessellations",
+        "8,32",
+        "--shadow-speeds",
+        "15,144",
+        "--shadow-width",
+        "48",
+        "--shadow-spp",
+        "4",
+    ];
     let mut args = vec!["bench", "analytic-accuracy", "--out", out_dir.to_str().unwrap()];
     args.extend_from_slice(&small);
     let out = run(&args);
@@ -173,6 +186,9 @@ fn the_analytic_rasterizers_accuracy_is_written_and_its_bad_settings_are_named()
     let csv = std::fs::read_to_string(out_dir.join("tessellation.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 2 * 2, "{csv}");
     assert!(csv.starts_with("paths,segments,samples,max,mean,bias\ntranslated,8,"), "{csv}");
+    let csv = std::fs::read_to_string(out_dir.join("contact-shadow.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2, "{csv}");
+    assert!(csv.lines().nth(2).is_some_and(|l| l.starts_with("144,")), "{csv}");
 
     let out = run(&["bench", "analytic-accuracy", "--tessellations", "16,2"]);
     assert_eq!(out.status.code(), Some(2));

@@ -189,6 +189,14 @@ pub fn markdown(sweep: &CostSweep, groups: &[MarkedGroup], figures: &[String], m
             r.flip.max
         ));
     }
+    if rows.iter().any(|r| r.method == Method::Analytic) {
+        md.push_str(
+            "\nThe analytic method's error on moving frames has a floor that no interval budget or supersampling removes: \
+             it shades each visibility interval once, at its temporal midpoint (Gribel et al. 2010), and the floor's interval \
+             spans the whole shutter, so the sphere's moving contact shadow is drawn sharp where the tracer smears it. \
+             `blurlab bench analytic-accuracy` measures that error in the shadow region per speed (`analysis/analytic/contact-shadow.csv`).\n",
+        );
+    }
     if !groups.is_empty() {
         let gold = gold(sweep, &rows);
         md.push_str(&format!(

@@ -32,6 +32,15 @@ struct AnalyticParams {
     // Sample points per output pixel along each axis: the image is the supersampled one, whose
     // n x n blocks are output pixels owning the shading's sample sequences.
     supersampling: u32,
+    // The pixel's work is resumable (see `analytic_pixel`): `pass` 0 starts it, a later pass
+    // continues from `resume`; `steps` bounds the steps one pass takes (0: no bound) and
+    // `light_chunk` the lighting samples one shading step takes (0: all of them).
+    pass_index: u32,
+    steps: u32,
+    light_chunk: u32,
+    // 2: the trip count of the loop that detects a device's loop limit (a uniform, so that
+    // no compiler unrolls it).
+    sentinel: u32,
     pad0: u32,
     pad1: u32,
     pad2: u32,
@@ -76,8 +85,18 @@ struct PixelStats {
 // tiles + 1 offsets into the triangle indices that follow them.
 @group(0) @binding(6) var<storage, read> bins: array<u32>;
 @group(0) @binding(7) var<storage, read_write> lists: array<Interval>;
-@group(0) @binding(8) var<storage, read_write> out_color: array<vec4<f32>>;
-@group(0) @binding(9) var<storage, read_write> out_stats: array<PixelStats>;
+// Per pixel: radiance (or coverage colours) and the covered fraction, then the counts.
+struct PixelOut {
+    color: vec4<f32>,
+    stats: PixelStats,
+}
+
+@group(0) @binding(8) var<storage, read_write> out_pixels: array<PixelOut>;
+// Per pixel of the band: where its work stands between passes.
+@group(0) @binding(10) var<storage, read_write> resume: array<Resume>;
+// [0]: pixels of this pass not yet done; [1]: pixels whose invocation group hit the
+// device's loop limit during this pass (its results are void).
+@group(0) @binding(11) var<storage, read_write> progress: array<atomic<u32>, 2>;
 
 const MAX_SPANS: u32 = 8u;
 const H1: f32 = 1000.0;
@@ -131,8 +150,9 @@ fn is_finite1(x: f32) -> bool {
 
 // Loops are few and short: Mesa's llvmpipe (lavapipe, the CI's device) ends every loop of
 // an invocation group once all its loops together have run 65535 iterations
-// (LP_MAX_TGSI_LOOP_ITERATIONS), so the three edges are unrolled, not looped over, and
-// tiles are ANALYTIC_TILE pixels wide; tests/analytic_gpu.rs holds the kernel to its twin.
+// (LP_MAX_TGSI_LOOP_ITERATIONS), so the three edges are unrolled, not looped over, tiles are
+// ANALYTIC_TILE pixels wide, and a pixel's work is cut into resumable steps (see
+// `analytic_pixel`); tests/analytic_gpu.rs holds the kernel to its twin.
 fn edge_inside(ti: u32, k: u32, s: vec2<f32>, t: f32, sign: f32) -> bool {
     let v = eval_q(edge_equation(ti, k, s), t) * sign;
     if v != 0.0 {
@@ -498,18 +518,15 @@ fn camera_ray(s: vec2<f32>) -> vec3<f32> {
     return ap.forward.xyz + ap.right.xyz * s.x + ap.up.xyz * s.y;
 }
 
-struct Shaded {
-    color: vec3<f32>,
-    nonfinite: u32,
+// Where an interval is shaded: the sphere at the interval's midpoint, the hit on the surface
+// the interval belongs to, and the camera ray's direction.
+struct ShadePoint {
+    sphere: SphereAt,
+    hit: Hit,
+    dir: vec3<f32>,
 }
 
-fn shade(ti: u32, iv: Interval, s: vec2<f32>, seed: u32, index: u32, sub: u32) -> Shaded {
-    if !SHADE {
-        if triangles[ti].flags.x == SPHERE {
-            return Shaded(vec3<f32>(1.0, 0.0, 0.0), 0u);
-        }
-        return Shaded(vec3<f32>(0.0, 1.0, 0.0), 0u);
-    }
+fn shade_point(ti: u32, iv: Interval, s: vec2<f32>) -> ShadePoint {
     let t = 0.5 * (iv.ts + iv.te);
     var depth = depth_at_time(ti, s, t);
     if !(is_finite1(depth) && depth > 0.0) {
@@ -536,19 +553,52 @@ fn shade(ti: u32, iv: Interval, s: vec2<f32>, seed: u32, index: u32, sub: u32) -
         let dp = point - origin;
         hit = Hit(sqrt(dot3(dp, dp)), point, vec3<f32>(0.0, 1.0, 0.0), FLOOR);
     }
-    let dir = normalize3(camera_ray(s));
-    var sum = vec3<f32>(0.0);
-    var bad = 0u;
-    let first = (index * ap.supersampling * ap.supersampling + sub) * ap.lighting;
-    for (var j = 0u; j < ap.lighting; j++) {
-        let l = radiance_from(sphere, seed, first + j, dir, hit);
-        if is_finite3(l) {
-            sum += l;
-        } else {
-            bad += 1u;
-        }
+    return ShadePoint(sphere, hit, normalize3(camera_ray(s)));
+}
+
+// The colour the coverage specialisation (SHADE false) gives a surface.
+fn coverage_colour(ti: u32) -> vec3<f32> {
+    if triangles[ti].flags.x == SPHERE {
+        return vec3<f32>(1.0, 0.0, 0.0);
     }
-    return Shaded(sum / f32(ap.lighting), bad);
+    return vec3<f32>(0.0, 1.0, 0.0);
+}
+
+// ---- The pixel's work as resumable steps. ----
+//
+// Mesa's llvmpipe (lavapipe) ends every loop of an invocation group, silently, once its loops
+// together have run LP_MAX_TGSI_LOOP_ITERATIONS (65535) times; a pixel of a moving sphere at
+// the study's sample counts needs more (its tile's triangles, then the lighting samples of
+// each kept interval: M3-S3-T5-A5 of the shipped design painted 8x8 tiles). So the pixel's
+// work is a sequence of steps (test one triangle of the tile, offer one visibility span to
+// the list, or shade the pending interval with `light_chunk` lighting samples) and a pass
+// takes at most `steps` of them, keeping where it stands in `resume`; the host repeats the
+// pass until every pixel is done. The steps run the twin's operations in the twin's order,
+// so how the work is cut does not change a bit of the result. A pass that still meets the
+// limit is detected (`sentinel`) and the host repeats the band with fewer steps per pass.
+
+const PHASE_TRIANGLE: u32 = 0u;
+const PHASE_SPANS: u32 = 1u;
+const PHASE_SHADE: u32 = 2u;
+const PHASE_DONE: u32 = 3u;
+
+struct Resume {
+    phase: u32,
+    // The next entry of the tile's bin.
+    next: u32,
+    // The triangle whose spans are being offered, and the next of its spans.
+    ti: u32,
+    span: u32,
+    span_n: u32,
+    // The list's length.
+    n: u32,
+    // The pending interval's lighting samples taken so far and those dropped.
+    j: u32,
+    bad: u32,
+    stats: PixelStats,
+    iv: Interval,
+    sum: vec4<f32>,
+    spans: array<vec2<f32>, 8>,
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -559,46 +609,129 @@ fn analytic_pixel(@builtin(global_invocation_id) gid: vec3<u32>) {
     if x >= ap.width || row >= ap.band_rows || y >= ap.height {
         return;
     }
+    let slot = row * ap.width + x;
+    let tile = (y / ANALYTIC_TILE) * ap.tiles_x + x / ANALYTIC_TILE;
+    var st: Resume;
+    if ap.pass_index == 0u {
+        st.phase = PHASE_TRIANGLE;
+        st.next = bins[tile];
+        st.n = 0u;
+        st.stats = PixelStats(0u, 0u, 0u, 0u);
+    } else {
+        st = resume[slot];
+    }
+    if st.phase == PHASE_DONE {
+        return;
+    }
     let pixel = y * ap.width + x;
     let s = ap.sample_corner_step.xy + ap.sample_corner_step.zw * vec2<f32>(f32(x) + 0.5, f32(y) + 0.5);
     let n = ap.supersampling;
     let seed = sampler32_pixel_seed(params.eye_seed ^ ANALYTIC_STREAM, (y / n) * (ap.width / n) + x / n);
     let sub = (y % n) * n + x % n;
-    var list = List((row * ap.width + x) * (ap.budget + 1u), 0u);
-    var stats = PixelStats(0u, 0u, 0u, 0u);
-    let tile = (y / ANALYTIC_TILE) * ap.tiles_x + x / ANALYTIC_TILE;
+    var list = List(slot * (ap.budget + 1u), st.n);
     let tri_end = bins[tile + 1u];
-    for (var b = bins[tile]; b < tri_end; b++) {
-        let ti = bins[b];
-        let bounds = triangles[ti].bounds;
-        var vis: Spans;
-        vis.n = 0u;
-        if x >= bounds.x && x < bounds.y && y >= bounds.z && y < bounds.w {
-            vis = visibility(ti, s);
+    var taken = 0u;
+    loop {
+        if st.phase == PHASE_DONE || (ap.steps != 0u && taken >= ap.steps) {
+            break;
         }
-        for (var v = 0u; v < vis.n; v++) {
-            let span = vis.t[v];
-            stats.offered += 1u;
-            let zk = linear_depth(ti, s, span.x, span.y);
-            var iv = insert_opaque_clip(&list, Interval(span.x, span.y, zk.x, zk.y, 0.0, 0.0, 0.0, 0.0));
-            if iv.te > iv.ts {
-                let sh = shade(ti, iv, s, seed, stats.kept, sub);
-                iv.r = sh.color.x;
-                iv.g = sh.color.y;
-                iv.b = sh.color.z;
+        taken += 1u;
+        if st.phase == PHASE_TRIANGLE {
+            if st.next >= tri_end {
+                st.phase = PHASE_DONE;
+            } else {
+                let ti = bins[st.next];
+                st.next += 1u;
+                let bounds = triangles[ti].bounds;
+                if x >= bounds.x && x < bounds.y && y >= bounds.z && y < bounds.w {
+                    let vis = visibility(ti, s);
+                    if vis.n > 0u {
+                        st.ti = ti;
+                        st.span = 0u;
+                        st.span_n = vis.n;
+                        st.spans = vis.t;
+                        st.phase = PHASE_SPANS;
+                    }
+                }
+            }
+        } else if st.phase == PHASE_SPANS {
+            if st.span >= st.span_n {
+                st.phase = PHASE_TRIANGLE;
+            } else {
+                let span = st.spans[st.span];
+                st.span += 1u;
+                st.stats.offered += 1u;
+                let zk = linear_depth(st.ti, s, span.x, span.y);
+                let iv = insert_opaque_clip(&list, Interval(span.x, span.y, zk.x, zk.y, 0.0, 0.0, 0.0, 0.0));
+                if iv.te > iv.ts {
+                    st.iv = iv;
+                    st.j = 0u;
+                    st.bad = 0u;
+                    st.sum = vec4<f32>(0.0);
+                    st.phase = PHASE_SHADE;
+                }
+            }
+        } else {
+            var colour = vec3<f32>(0.0);
+            var finished = true;
+            if SHADE {
+                let sp = shade_point(st.ti, st.iv, s);
+                let first = (st.stats.kept * ap.supersampling * ap.supersampling + sub) * ap.lighting;
+                var end = ap.lighting;
+                if ap.light_chunk != 0u {
+                    end = min(st.j + ap.light_chunk, ap.lighting);
+                }
+                var sum = st.sum.xyz;
+                for (var j = st.j; j < end; j++) {
+                    let l = radiance_from(sp.sphere, seed, first + j, sp.dir, sp.hit);
+                    if is_finite3(l) {
+                        sum += l;
+                    } else {
+                        st.bad += 1u;
+                    }
+                }
+                st.sum = vec4<f32>(sum, 0.0);
+                st.j = end;
+                finished = end >= ap.lighting;
+                colour = sum / f32(ap.lighting);
+            } else {
+                colour = coverage_colour(st.ti);
+            }
+            if finished {
+                var iv = st.iv;
+                iv.r = colour.x;
+                iv.g = colour.y;
+                iv.b = colour.z;
                 insert_sorted(&list, iv);
-                stats.kept += 1u;
-                stats.nonfinite += sh.nonfinite;
-                stats.merges += compress(&list);
+                st.stats.kept += 1u;
+                st.stats.nonfinite += st.bad;
+                st.stats.merges += compress(&list);
+                st.phase = PHASE_SPANS;
             }
         }
     }
-    let res = resolve(list);
-    var background = vec3<f32>(0.0);
-    if SHADE {
-        background = env_texel(texel_of(normalize3(camera_ray(s))).index);
+    st.n = list.n;
+    if st.phase == PHASE_DONE {
+        let res = resolve(list);
+        var background = vec3<f32>(0.0);
+        if SHADE {
+            background = env_texel(texel_of(normalize3(camera_ray(s))).index);
+        }
+        let rest = max(1.0 - res.w, 0.0);
+        out_pixels[pixel] = PixelOut(vec4<f32>(res.xyz + background * rest, res.w), st.stats);
+    } else {
+        atomicAdd(&progress[0], 1u);
     }
-    let rest = max(1.0 - res.w, 0.0);
-    out_color[pixel] = vec4<f32>(res.xyz + background * rest, res.w);
-    out_stats[pixel] = stats;
+    resume[slot] = st;
+    // Runs `sentinel` times unless the device's loop limit was reached during this pass.
+    var k = 0u;
+    loop {
+        k += 1u;
+        if k >= ap.sentinel {
+            break;
+        }
+    }
+    if k != ap.sentinel {
+        atomicAdd(&progress[1], 1u);
+    }
 }

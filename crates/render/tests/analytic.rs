@@ -696,3 +696,95 @@ fn the_benchmark_reports_time_intervals_and_machine() {
     assert!(mean >= 0.9 && max as f64 >= mean && max >= 3, "{r}");
     assert!(r["machine"].is_object(), "{r}");
 }
+
+/// Issue 31, defect 3: a sphere that travels more than its path's wrap length in one
+/// exposure (1000 deg/s) crosses the view more than once; straight vertex paths cannot show
+/// that, and the CPU rasterizer used to drop the sphere without a word while the GPU refused.
+/// Both now refuse it with the same error; one wrap per exposure still renders.
+#[test]
+fn a_sphere_that_wraps_over_within_the_shutter_is_refused_on_every_device() {
+    let mut s = common::study_frame(32, 18, 1, 1.0);
+    let wrap = s.sphere.wrap_length.expect("the study's path wraps");
+    let duration = s.shutter.close - s.shutter.open;
+    let env = render::env::EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    assert!(render::analytic::render_frame(&s, &env, &AnalyticParams::default()).is_ok());
+    // 1.5 wrap lengths per exposure.
+    s.sphere.velocity *= 1.5 * wrap / (s.sphere.velocity.length() * duration);
+    let e = render::analytic::render_frame(&s, &env, &AnalyticParams::default()).unwrap_err();
+    assert!(matches!(e, render::analytic::AnalyticError::WrapsOver { .. }), "{e}");
+    assert!(e.to_string().contains("degrees_per_second"), "{e}");
+    // Through the Renderer, as render-frame uses it: a settings error (exit 2), not an image.
+    let spec = study::method::MethodSpec::of(study::Method::Analytic);
+    let r = render::Renderer::cpu(&env).render(&spec, &s).unwrap_err();
+    assert!(matches!(r, render::RenderError::Settings(_)), "{r}");
+}
+
+/// The floor square and near plane grow only for cameras that need it (issue 31, defect 7):
+/// every view of the shipped design, at both presets and in stereo, keeps the 1e5 m square and
+/// the 1 mm near plane, so its frames are the bytes they were.
+#[test]
+fn the_shipped_designs_cameras_keep_the_floor_as_it_was() {
+    use render::analytic::geometry::{FLOOR_EXTENT, NEAR, floor_extent, floor_near};
+    let design = study::design::Design::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
+    )
+    .unwrap();
+    for preset in ["quick", "full"] {
+        let preset = design.preset(preset).unwrap();
+        for id in ["M1-S1-T1-A1", "M3-S3-T5-A5-stereo"] {
+            let s = design.frame_scene_with(&preset, &id.parse().unwrap(), 0).unwrap();
+            for v in &s.views {
+                let camera = CameraFrame::new(&v.camera);
+                assert_eq!(floor_extent(&camera, s.floor.height), FLOOR_EXTENT);
+                assert_eq!(floor_near(&camera, s.floor.height), NEAR);
+            }
+        }
+    }
+}
+
+/// A 10,000 times longer lens (pixels of 1e-7 rad, as a camera 1e5 m away that keeps the
+/// sphere's size has) and a 1 x 4096 image that looks almost straight down both see the
+/// floor the tracer sees: the square reaches the horizon within a hundredth of a pixel and
+/// the near plane lies below every ray's floor point (issue 31, defect 7).
+#[test]
+fn the_analytic_floor_reaches_the_horizon_and_the_feet_of_any_camera() {
+    use render::analytic::geometry::{FLOOR_EXTENT, NEAR, floor_extent, floor_near};
+    let mut s = common::study_frame(32, 18, 1, 1.0);
+    s.views[0].camera.focal_length *= 1e4;
+    let camera = CameraFrame::new(&s.views[0].camera);
+    let e = floor_extent(&camera, s.floor.height);
+    assert!(e > 100.0 * FLOOR_EXTENT, "extent {e}");
+    let tall = common::study_frame(1, 4096, 1, 1.0);
+    let camera = CameraFrame::new(&tall.views[0].camera);
+    let near = floor_near(&camera, tall.floor.height);
+    assert!(near < 0.5 * NEAR, "near plane {near}");
+}
+
+/// Issue 31, defect 8, measured: one shading per interval at its midpoint leaves the moving
+/// contact shadow sharp, so in the shadow region the rasterizer's darkest pixel is darker
+/// than the tracer's smear at 144 deg/s, and its error there grows with the speed (4 x 4
+/// points per pixel, so that the pixel's area is covered as the tracer covers it).
+#[test]
+fn the_contact_shadows_error_is_the_methods_measured_limit_and_grows_with_speed() {
+    let design = study::design::Design::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
+    )
+    .unwrap();
+    let measure = |speed: f64| {
+        let mut d = design.clone();
+        d.spec.factors.speed[2].degrees_per_second = speed;
+        let mut s = render::tracer::bench::benchmark_frame(&d, 32, false).unwrap();
+        for v in &mut s.views {
+            (v.camera.width, v.camera.height) = (96, 54);
+        }
+        let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+        let traced = render::tracer::render_frame(&s, &env);
+        let raster = render_frame(&s, &env, &accuracy::SHADOW_PARAMS).unwrap();
+        accuracy::contact_shadow_error(&s, speed, &traced.eyes[0], &raster.eyes[0])
+    };
+    let (slow, fast) = (measure(5.0), measure(144.0));
+    eprintln!("contact shadow: {slow:?}\n{fast:?}");
+    assert!(slow.pixels > 20 && fast.pixels > slow.pixels, "regions of {} and {} pixels", slow.pixels, fast.pixels);
+    assert!(fast.analytic_darkest < 0.5 * fast.tracer_darkest, "{fast:?}");
+    assert!(fast.mean_abs_error > 1.5 * slow.mean_abs_error, "{slow:?} {fast:?}");
+}

@@ -68,6 +68,8 @@ pub struct CameraFrame {
     step: DVec2,
     /// The sample point of pixel position (0, 0).
     corner: DVec2,
+    /// Image size in pixels.
+    size: (u32, u32),
 }
 
 impl CameraFrame {
@@ -86,6 +88,7 @@ impl CameraFrame {
                 (camera.sensor_shift.x - 0.5 * camera.sensor_width) / f,
                 (camera.sensor_shift.y + 0.5 * sh) / f,
             ),
+            size: (camera.width, camera.height),
         }
     }
 
@@ -148,14 +151,59 @@ pub fn unit_sphere(segments: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
     (vertices, tris)
 }
 
-/// Half the side of the floor square around the camera (metres): beyond it is sky. The
-/// tracer's floor is an infinite plane, whose horizon the square's far edge stands in for,
-/// `camera height / FLOOR_EXTENT` radians below it: 1e5 m keeps that gap near 1e-5 rad, a
+/// Half the side of the floor square around the camera (metres) at least: beyond it is sky.
+/// The tracer's floor is an infinite plane, whose horizon the square's far edge stands in
+/// for, `camera height / extent` radians below it: 1e5 m keeps that gap near 1e-5 rad, a
 /// hundredth of a study pixel (at 1 km the whole horizon row showed sky instead of floor).
-/// Edge equations are homogeneous, so the far vertices cost no precision.
+/// Edge equations are homogeneous, so the far vertices cost no precision. A camera with
+/// smaller pixels, or higher above the floor, gets a larger square ([`floor_extent`]).
 pub const FLOOR_EXTENT: f64 = 1.0e5;
-/// The near plane the floor is clipped to (metres of view depth).
+/// The near plane the floor is clipped to (metres of view depth), unless a ray of the image
+/// meets the floor nearer ([`floor_near`]).
 pub const NEAR: f64 = 1e-3;
+/// The largest gap between the floor square's far edge and the horizon, in pixels.
+const HORIZON_GAP_PIXELS: f64 = 0.01;
+
+impl CameraFrame {
+    /// The smallest angle a pixel subtends (radians, at the image's widest ray: an upper
+    /// bound on its tangent steps).
+    fn pixel_angle(&self) -> f64 {
+        let (width, height) = self.size;
+        let corner =
+            self.corner.abs().max((self.corner + self.step * DVec2::new(f64::from(width), f64::from(height))).abs());
+        let widest = 1.0 + corner.length_squared();
+        self.step.x.abs().min(self.step.y.abs()) / widest
+    }
+}
+
+/// Half the side of the floor square that puts its far edge within
+/// [`HORIZON_GAP_PIXELS`] of the horizon for `camera` (at least [`FLOOR_EXTENT`]).
+pub fn floor_extent(camera: &CameraFrame, floor_height: f64) -> f64 {
+    let above = (camera.origin.y - floor_height).abs();
+    let needed = above / (HORIZON_GAP_PIXELS * camera.pixel_angle());
+    if needed.is_finite() { needed.max(FLOOR_EXTENT) } else { FLOOR_EXTENT }
+}
+
+/// The near plane for the floor: [`NEAR`], or half the smallest view depth at which a ray
+/// through the image's corners meets the floor, so that no floor the tracer sees is clipped
+/// (a very tall image looks almost straight down; its bottom rows meet the floor nearer
+/// than a millimetre).
+pub fn floor_near(camera: &CameraFrame, floor_height: f64) -> f64 {
+    let (width, height) = camera.size;
+    // The floor in camera space: n . q = d.
+    let n = DVec3::new(camera.right.y, camera.up.y, camera.forward.y);
+    let d = floor_height - camera.origin.y;
+    let mut near = NEAR;
+    for (px, py) in [(0, 0), (width, 0), (0, height), (width, height)] {
+        let s = camera.sample(DVec2::new(f64::from(px), f64::from(py)));
+        let along = n.dot(DVec3::new(s.x, s.y, 1.0));
+        let z = d / along;
+        if z.is_finite() && z > 0.0 {
+            near = near.min(0.5 * z);
+        }
+    }
+    near
+}
 
 /// The convex polygon `poly` (camera space) clipped to `w >= near` (Sutherland-Hodgman).
 pub fn clip_near(poly: &[DVec3], near: f64) -> Vec<DVec3> {
@@ -237,13 +285,13 @@ pub fn scene_triangles(scene: &FrameScene, camera: &CameraFrame, segments: u32) 
     out
 }
 
-/// The floor of `scene` seen from `camera`, a square of [`FLOOR_EXTENT`] clipped to the near
-/// plane.
+/// The floor of `scene` seen from `camera`, a square of [`floor_extent`] clipped to the
+/// [`floor_near`] plane.
 pub fn floor_triangles(scene: &FrameScene, camera: &CameraFrame) -> Vec<MovingTriangle> {
     let mut out = Vec::new();
     let h = scene.floor.height;
     let (ox, oz) = (camera.origin.x, camera.origin.z);
-    let e = FLOOR_EXTENT;
+    let e = floor_extent(camera, h);
     let quad = [
         DVec3::new(ox - e, h, oz - e),
         DVec3::new(ox - e, h, oz + e),
@@ -251,7 +299,7 @@ pub fn floor_triangles(scene: &FrameScene, camera: &CameraFrame) -> Vec<MovingTr
         DVec3::new(ox + e, h, oz - e),
     ]
     .map(|p| camera.to_camera(p));
-    let poly = clip_near(&quad, NEAR);
+    let poly = clip_near(&quad, floor_near(camera, h));
     for i in 1..poly.len().saturating_sub(1) {
         out.push(MovingTriangle::fixed([poly[0], poly[i], poly[i + 1]], SurfaceKind::Floor));
     }

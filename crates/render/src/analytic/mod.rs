@@ -16,7 +16,15 @@
 //! [`sphere`] is the exact visibility of the untessellated moving sphere, the closed form the
 //! triangles approximate. [`accuracy`] holds the measurements the tests check and
 //! `blurlab bench analytic-accuracy` draws (the depth approximation's error histogram of the
-//! paper's Figure 10, the tessellation's coverage error).
+//! paper's Figure 10, the tessellation's coverage error, the contact shadow per speed).
+//!
+//! Limits, measured rather than hidden: shading is one evaluation per interval at its
+//! temporal midpoint, as the paper specifies, and the floor's interval spans the whole
+//! shutter, so the sphere's moving contact shadow is shaded as it stands mid-shutter: a
+//! sharp dark ellipse where the tracer shows a smear (visible from about 30 deg/s on the
+//! study frame; [`accuracy::contact_shadow_error`], `analysis/analytic/contact-shadow.csv`).
+//! The triangles move in one straight line per exposure: a sphere that travels its path's
+//! whole wrap length within one shutter is refused ([`check_motion`]) on every device.
 //!
 //! Settings (`study::method::MethodSpec`): `intervals`, the per-pixel budget (4-64, default
 //! [`DEFAULT_INTERVALS`]); `tessellation`, the sphere's segments around its equator (at
@@ -68,6 +76,35 @@ pub enum AnalyticError {
     /// A setting outside its range.
     #[error("analytic rasterizer: {0}")]
     Settings(String),
+    /// The sphere's path wraps onto itself within one exposure, which straight vertex paths
+    /// cannot follow.
+    #[error(
+        "analytic rasterizer: the sphere travels {travel:e} m during the shutter, at least its path's wrap length {wrap} m, so it would cross the view more than once in one exposure; the analytic method moves its triangles in one straight line per exposure (lower the speed level's degrees_per_second or the shutter level)"
+    )]
+    WrapsOver {
+        /// Distance over the shutter.
+        travel: f64,
+        /// Wrap length.
+        wrap: f64,
+    },
+}
+
+/// Refuses a frame whose sphere travels its path's whole wrap length (or more) during the
+/// shutter: the same refusal on the CPU and the GPU (the GPU kernel's parameters cannot
+/// express it either). A single wrap within an exposure is followed by neither: the wrap
+/// points lie outside every view, and the straight path leaves the view as the wrapped one
+/// does.
+pub fn check_motion(scene: &FrameScene) -> Result<(), AnalyticError> {
+    let Some(wrap) = scene.sphere.wrap_length.filter(|l| *l > 0.0) else { return Ok(()) };
+    if !scene.needs_time_sampling() {
+        return Ok(());
+    }
+    let duration = scene.shutter.close.max(scene.shutter.open) - scene.shutter.open;
+    let travel = scene.sphere.velocity.length() * duration;
+    if travel >= wrap || !travel.is_finite() {
+        return Err(AnalyticError::WrapsOver { travel, wrap });
+    }
+    Ok(())
 }
 
 /// The rasterizer's settings, resolved.
@@ -151,6 +188,7 @@ pub fn render_frame(
     params: &AnalyticParams,
 ) -> Result<AnalyticFrame, AnalyticError> {
     params.check()?;
+    check_motion(scene)?;
     let lighting = params.lighting_samples.unwrap_or(scene.samples_per_pixel).max(1);
     let mut eyes = Vec::with_capacity(scene.views.len());
     let mut stats = RasterStats::default();

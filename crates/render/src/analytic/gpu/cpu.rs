@@ -403,11 +403,15 @@ fn camera_ray(ap: &RasterParams, s: Vec2) -> Vec3 {
     xyz(ap.forward) + xyz(ap.right) * s.x + xyz(ap.up) * s.y
 }
 
-#[allow(clippy::too_many_arguments)]
-fn shade(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2, seed: u32, index: u32, sub: u32) -> (Vec3, u32) {
-    if !k.shade {
-        return if tri.flags[0] == SPHERE { (Vec3::X, 0) } else { (Vec3::Y, 0) };
-    }
+/// Where an interval is shaded (`ShadePoint` in WGSL): the sphere at the interval's midpoint,
+/// the hit on the interval's surface, the camera ray's direction.
+struct ShadePoint {
+    sphere: SphereAt,
+    hit: Hit,
+    dir: Vec3,
+}
+
+fn shade_point(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2) -> ShadePoint {
     let (p, ap) = (&k.prepared.frame, &k.prepared.raster);
     let t = 0.5 * (iv.ts + iv.te);
     let mut depth = depth_at_time(tri, s, t);
@@ -430,12 +434,28 @@ fn shade(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2, seed: u32
         let dp = point - origin;
         Hit { t: dot3(dp, dp).sqrt(), point, normal: Vec3::Y, surface: FLOOR }
     };
-    let dir = normalize3(camera_ray(ap, s));
+    ShadePoint { sphere, hit, dir: normalize3(camera_ray(ap, s)) }
+}
+
+/// The colour the coverage specialisation gives a surface (`coverage_colour` in WGSL).
+fn coverage_colour(tri: &GpuTriangle) -> Vec3 {
+    if tri.flags[0] == SPHERE { Vec3::X } else { Vec3::Y }
+}
+
+/// The interval's colour and the lighting samples dropped: the kernel's shading step, all of
+/// the interval's lighting samples in one (the kernel may take them over several passes, in
+/// the same order).
+fn shade(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2, seed: u32, index: u32, sub: u32) -> (Vec3, u32) {
+    if !k.shade {
+        return (coverage_colour(tri), 0);
+    }
+    let (p, ap) = (&k.prepared.frame, &k.prepared.raster);
+    let sp = shade_point(k, tri, iv, s);
     let mut sum = Vec3::ZERO;
     let mut bad = 0;
     let first = (index * ap.supersampling * ap.supersampling + sub) * ap.lighting;
     for j in 0..ap.lighting {
-        let l = radiance_from(p, &k.spec, k.env, &sphere, seed, first + j, dir, hit);
+        let l = radiance_from(p, &k.spec, k.env, &sp.sphere, seed, first + j, sp.dir, sp.hit);
         if is_finite3(l) {
             sum += l;
         } else {

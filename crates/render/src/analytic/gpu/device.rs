@@ -1,9 +1,14 @@
 //! The host of the analytic kernel: [`GpuAnalytic`] compiles `shaders/analytic.wgsl` (which
 //! includes the tracer's kernel for its integrator) once per specialisation and renders a
 //! frame's views. The per-pixel interval lists live in one storage buffer of `budget + 1`
-//! entries per pixel; an image whose lists would exceed [`LIST_BYTES`] (or the device's
-//! storage binding limit) is rendered in bands of rows that reuse it, one dispatch per band,
-//! all in one compute pass (wgpu orders the dispatches' storage accesses).
+//! entries per pixel, beside each pixel's resumable state; an image whose lists would exceed
+//! [`LIST_BYTES`] (or the device's storage binding limit) is rendered in bands of rows that
+//! reuse them. A hardware adapter renders a band in one dispatch. A software adapter
+//! (llvmpipe, whose loops stop silently after 65535 iterations per invocation group) renders
+//! it in passes of at most [`SOFTWARE_STEPS`] steps per pixel, repeated until every pixel is
+//! done; a pass whose group still met the limit (the kernel detects it) is thrown away and
+//! the band begins again with half the steps per pass. Either way the image is the same bits:
+//! the steps are the twin's operations in the twin's order.
 
 use std::collections::HashMap;
 use std::sync::Mutex;
@@ -23,6 +28,12 @@ use crate::tracer::gpu::{GpuEnvironment, assembler};
 /// is 184 KiB, so the study's frames are one band up to a budget of 11).
 pub const LIST_BYTES: u64 = 64 << 20;
 const WORKGROUP: u32 = 8;
+/// Bytes of a pixel's `Resume` state in the kernel.
+const RESUME_BYTES: u64 = 160;
+/// Steps per pixel a pass takes at first on a software adapter (halved while a pass meets
+/// the device's loop limit): llvmpipe ends an invocation group's loops after 65535
+/// iterations in all, and a step runs at most a few hundred.
+pub const SOFTWARE_STEPS: u32 = 64;
 
 /// Errors of the GPU rasterizer.
 #[derive(Debug, thiserror::Error)]
@@ -119,7 +130,8 @@ impl GpuAnalytic {
                 entry(6, read),
                 entry(7, write),
                 entry(8, write),
-                entry(9, write),
+                entry(10, write),
+                entry(11, write),
             ],
         });
         let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -170,6 +182,7 @@ impl GpuAnalytic {
         params: &AnalyticParams,
     ) -> Result<AnalyticFrame, GpuAnalyticError> {
         params.check()?;
+        crate::analytic::check_motion(scene)?;
         let spec = Specialisation::of(scene);
         let mut eyes = Vec::with_capacity(scene.views.len());
         let mut stats = RasterStats::default();
@@ -202,19 +215,21 @@ impl GpuAnalytic {
         let raster = prepared.raster;
         let (w, h) = (raster.width, raster.height);
         let pixels = u64::from(w) * u64::from(h);
-        let per_row = u64::from(w) * (u64::from(raster.budget) + 1) * std::mem::size_of::<GpuInterval>() as u64;
+        let list_row = u64::from(w) * (u64::from(raster.budget) + 1) * std::mem::size_of::<GpuInterval>() as u64;
+        let resume_row = u64::from(w) * RESUME_BYTES;
         let list_limit = LIST_BYTES.min(limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
-        if per_row > list_limit {
+        if list_row.max(resume_row) > list_limit {
             return Err(self.limit(format!(
-                "one row of {w} pixels needs {per_row} bytes of interval lists, more than the {list_limit} allowed"
+                "one row of {w} pixels needs {} bytes of interval lists, more than the {list_limit} allowed",
+                list_row.max(resume_row)
             )));
         }
-        let band = ((list_limit / per_row).min(u64::from(h)) as u32).max(1);
+        let band = ((list_limit / list_row.max(resume_row)).min(u64::from(h)) as u32).max(1);
         let max_groups = limits.max_compute_workgroups_per_dimension;
         if w.div_ceil(WORKGROUP) > max_groups || band.div_ceil(WORKGROUP) > max_groups {
             return Err(self.limit(format!("an image {w}x{h} needs more than {max_groups} workgroups per dimension")));
         }
-        let out_bytes = pixels * 16;
+        let out_bytes = pixels * 32;
         if out_bytes > limits.max_storage_buffer_binding_size {
             return Err(self.limit(format!(
                 "an image {w}x{h} needs {out_bytes}-byte outputs, more than the {}-byte storage binding limit",
@@ -225,11 +240,11 @@ impl GpuAnalytic {
         let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents, usage })
         };
-        let storage = |label: &str, bytes: u64| {
+        let storage = |label: &str, bytes: u64, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
                 size: bytes.max(16),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                usage: wgpu::BufferUsages::STORAGE | usage,
                 mapped_at_creation: false,
             })
         };
@@ -240,44 +255,89 @@ impl GpuAnalytic {
             if prepared.triangles.is_empty() { &placeholder } else { &prepared.triangles };
         let triangles = init("triangles", bytemuck::cast_slice(tris), wgpu::BufferUsages::STORAGE);
         let bins = init("tile bins", bytemuck::cast_slice(&prepared.bins), wgpu::BufferUsages::STORAGE);
-        let lists = storage("interval lists", per_row * u64::from(band));
-        let out_color = storage("analytic colour", out_bytes);
-        let out_stats = storage("analytic stats", out_bytes);
-        let binds: Vec<wgpu::BindGroup> = (0..h.div_ceil(band))
-            .map(|i| {
-                let first_row = i * band;
-                let p = super::RasterParams { first_row, band_rows: band.min(h - first_row), ..raster };
-                let uniform = init("raster params", bytemuck::bytes_of(&p), wgpu::BufferUsages::UNIFORM);
-                let entries = [
-                    wgpu::BindGroupEntry { binding: 0, resource: frame.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 1, resource: env.buffer().as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 4, resource: uniform.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 5, resource: triangles.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 6, resource: bins.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 7, resource: lists.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 8, resource: out_color.as_entire_binding() },
-                    wgpu::BindGroupEntry { binding: 9, resource: out_stats.as_entire_binding() },
-                ];
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("analytic"),
-                    layout: &self.layout,
-                    entries: &entries,
-                })
-            })
-            .collect();
+        let lists = storage("interval lists", list_row * u64::from(band), wgpu::BufferUsages::empty());
+        let resume = storage("resume", resume_row * u64::from(band), wgpu::BufferUsages::empty());
+        let progress = storage("progress", 8, wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST);
+        let out_pixels = storage("analytic pixels", out_bytes, wgpu::BufferUsages::COPY_SRC);
+        let uniform = init(
+            "raster params",
+            bytemuck::bytes_of(&raster),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let entries = [
+            wgpu::BindGroupEntry { binding: 0, resource: frame.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: env.buffer().as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 4, resource: uniform.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 5, resource: triangles.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 6, resource: bins.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 7, resource: lists.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 8, resource: out_pixels.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 10, resource: resume.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 11, resource: progress.as_entire_binding() },
+        ];
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("analytic"),
+            layout: &self.layout,
+            entries: &entries,
+        });
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Validation { what: "analytic buffers".into(), message: e.to_string() }.into());
         }
-        let timing = self.ctx.timer().compute_pass("analytic rasterizer", |pass| {
-            pass.set_pipeline(&pipeline);
-            for (i, bind) in binds.iter().enumerate() {
-                let rows = band.min(h - i as u32 * band);
-                pass.set_bind_group(0, bind, &[]);
-                pass.dispatch_workgroups(w.div_ceil(WORKGROUP), rows.div_ceil(WORKGROUP), 1);
+        // A hardware adapter does each band in one pass; a software one in passes of bounded
+        // steps (the kernel's "resumable steps"), fewer per pass while one meets the limit.
+        let software = self.ctx.info.is_software;
+        let mut steps = if software { SOFTWARE_STEPS } else { 0 };
+        let mut light_chunk = u32::from(software);
+        let timer = self.ctx.timer();
+        let mut seconds = 0.0;
+        let mut timing_source = None;
+        for first_row in (0..h).step_by(band as usize) {
+            let rows = band.min(h - first_row);
+            let mut pass_index = 0;
+            loop {
+                let p = super::RasterParams { first_row, band_rows: rows, pass_index, steps, light_chunk, ..raster };
+                self.ctx.queue.write_buffer(&uniform, 0, bytemuck::bytes_of(&p));
+                self.ctx.queue.write_buffer(&progress, 0, &[0; 8]);
+                let timing = timer.compute_pass("analytic rasterizer", |pass| {
+                    pass.set_pipeline(&pipeline);
+                    pass.set_bind_group(0, &bind, &[]);
+                    pass.dispatch_workgroups(w.div_ceil(WORKGROUP), rows.div_ceil(WORKGROUP), 1);
+                })?;
+                seconds += timing.seconds;
+                timing_source.get_or_insert(timing.source);
+                let [pending, cut]: [u32; 2] = match self.ctx.read_buffer_as::<u32>(&progress, ..8)?[..] {
+                    [a, b] => [a, b],
+                    _ => {
+                        return Err(GpuError::Validation {
+                            what: "analytic progress".into(),
+                            message: "short read".into(),
+                        }
+                        .into());
+                    }
+                };
+                if cut > 0 {
+                    if steps == 1 {
+                        return Err(self.limit(format!(
+                            "{cut} pixels of rows {first_row}..{} need more loop iterations in one step than the device allows",
+                            first_row + rows
+                        )));
+                    }
+                    // Start the band again with half the steps per pass.
+                    steps = if steps == 0 { SOFTWARE_STEPS } else { steps / 2 };
+                    light_chunk = 1;
+                    pass_index = 0;
+                    continue;
+                }
+                if pending == 0 {
+                    break;
+                }
+                pass_index += 1;
             }
-        })?;
-        let colour: Vec<[f32; 4]> = self.ctx.read_buffer_as(&out_color, ..out_bytes)?;
-        let stats: Vec<PixelStats> = self.ctx.read_buffer_as(&out_stats, ..out_bytes)?;
+        }
+        let out: Vec<[u32; 8]> = self.ctx.read_buffer_as(&out_pixels, ..out_bytes)?;
+        let colour: Vec<[f32; 4]> = out.iter().map(|o| [0, 1, 2, 3].map(|i| f32::from_bits(o[i]))).collect();
+        let stats: Vec<PixelStats> =
+            out.iter().map(|o| PixelStats { offered: o[4], kept: o[5], merges: o[6], nonfinite: o[7] }).collect();
         let mut image = LinearImage::new(w, h);
         for (dst, c) in image.pixels.iter_mut().zip(&colour) {
             *dst = [c[0], c[1], c[2]];
@@ -286,8 +346,8 @@ impl GpuAnalytic {
             image,
             coverage: colour.iter().map(|c| c[3]).collect(),
             stats,
-            seconds: timing.seconds,
-            timing_source: timing.source,
+            seconds,
+            timing_source: timing_source.unwrap_or(TimingSource::WallClock),
         })
     }
 }

@@ -69,6 +69,15 @@ pub struct RasterParams {
     /// Sample points per output pixel along each axis (the image is the supersampled one:
     /// its `n x n` blocks are output pixels, which own the shading's sample sequences).
     pub supersampling: u32,
+    /// Which pass over the band this dispatch is (0 starts every pixel's work; later passes
+    /// resume it): see [`device::GpuAnalytic::render_view`].
+    pub pass_index: u32,
+    /// Steps one pass takes at most per pixel (0: no bound, the whole pixel in one pass).
+    pub steps: u32,
+    /// Lighting samples one shading step takes at most (0: all of the interval's).
+    pub light_chunk: u32,
+    /// The trip count of the kernel's loop-limit detector (2).
+    pub sentinel: u32,
     /// Padding to 16 bytes.
     pub pad: [u32; 3],
 }
@@ -196,6 +205,10 @@ impl Prepared {
             lighting,
             tiles_x: tw,
             supersampling: params.supersampling.max(1),
+            pass_index: 0,
+            steps: 0,
+            light_chunk: 0,
+            sentinel: 2,
             pad: [0; 3],
         };
         Ok(Prepared { frame, raster, triangles, bins })
@@ -234,7 +247,7 @@ mod tests {
 
     #[test]
     fn layouts_match_the_wgsl_structs() {
-        assert_eq!(std::mem::size_of::<RasterParams>(), 112);
+        assert_eq!(std::mem::size_of::<RasterParams>(), 128);
         assert_eq!(std::mem::size_of::<GpuTriangle>(), 15 * 16 + 32);
         assert_eq!(std::mem::size_of::<GpuInterval>(), 32);
         assert_eq!(std::mem::size_of::<PixelStats>(), 16);
