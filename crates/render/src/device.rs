@@ -296,9 +296,11 @@ impl<'env> Renderer<'env> {
         let centre = instant_scene(scene, centre_time(&scene.shutter));
         let traced = self.trace(&centre)?;
         let mut gpu_seconds = traced.gpu_seconds;
+        let mut nonfinite_samples = traced.nonfinite_samples;
         let eyes = if scene.needs_time_sampling() {
             let mut eyes = Vec::with_capacity(scene.views.len());
             for (g, view) in gbuffers(scene, traced.eyes).iter().zip(&scene.views) {
+                nonfinite_samples += crate::filters::nonfinite_pixels(g);
                 let seed = filter_seed(view.seed);
                 let color = match (&self.gpu, method.kind) {
                     (Some(d), Method::Mcguire) => {
@@ -326,7 +328,7 @@ impl<'env> Renderer<'env> {
         };
         Ok(RenderedFrame {
             image: compose_eyes(eyes),
-            nonfinite_samples: traced.nonfinite_samples,
+            nonfinite_samples,
             camera_samples: traced.camera_samples,
             gpu_seconds,
         })

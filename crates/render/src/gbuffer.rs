@@ -6,7 +6,8 @@
 //! shutter's opening and closing if it kept its velocity at the centre instant, projected by
 //! the eye's own camera (so the stereo eyes each get theirs). On the sphere that is the rolling
 //! velocity of the surface point (translation plus spin: twice the speed on top, rest at the
-//! contact). The floor is static, except in the sphere's shadow region, which moves with the
+//! contact). A motion that carries the point past the camera's near plane within the exposure
+//! is clipped there ([`screen_motion`]), not dropped. The floor is static, except in the sphere's shadow region, which moves with the
 //! sphere: floor points where the sphere covers at least [`SHADOW_FORM_FACTOR`] of the
 //! cosine-weighted sky get the sphere's translation, so the filters smear the contact shadow
 //! as the tracer's time integral does.
@@ -76,14 +77,69 @@ pub fn pixel_geometry(scene: &FrameScene, camera: &Camera, x: u32, y: u32, time:
     } else {
         DVec3::ZERO
     };
-    let velocity = match (
-        camera.project(p - world_velocity * (0.5 * exposure)),
-        camera.project(p + world_velocity * (0.5 * exposure)),
-    ) {
-        (Some(a), Some(b)) => b - a,
-        _ => DVec2::ZERO,
-    };
+    let velocity = screen_motion(camera, p, world_velocity, 0.5 * exposure);
     PixelGeometry { depth: (t * dir.dot(camera.forward)) as f32, velocity: [velocity.x as f32, velocity.y as f32] }
+}
+
+/// The near plane motion segments are clipped to (metres of view depth), or half the depth
+/// of the point that moves where that is nearer.
+pub const MOTION_NEAR: f64 = 1e-3;
+/// The longest velocity a G-buffer holds, pixels per exposure: longer ones keep their
+/// direction (the filters clamp every velocity to their tile size, at most 1024 pixels, and
+/// f32 holds this one).
+pub const MAX_VELOCITY: f64 = 1e30;
+/// How far a motion segment reaches at most, in distances from the camera to the point:
+/// farther, its end projects within 1e-12 of the line's vanishing point, or beyond 1e9
+/// image widths where it runs parallel to the image plane.
+const MAX_REACH: f64 = 1e12;
+
+/// The screen-space displacement (pixels, x right, y down) of a point `p` in front of
+/// `camera` moving at `world_velocity` for `half_exposure` seconds either side of now: the
+/// projection of the segment from `p - h` to `p + h` (`h` the velocity times
+/// `half_exposure`).
+///
+/// An end that would cross the near plane ([`MOTION_NEAR`]) is clipped where the segment from
+/// `p` towards it crosses the plane, and the velocity is the screen vector of the clipped
+/// segment: a point passing the camera sweeps the screen towards that side (the filters
+/// clamp the vector to their largest blur), it does not stand still. Segments longer than
+/// [`MAX_REACH`] viewing distances (or overflowing f64) are shortened to it, and the result
+/// to [`MAX_VELOCITY`], both keeping their direction. Segments within all three bounds, every
+/// ordinary frame's, are projected as they are.
+pub fn screen_motion(camera: &Camera, p: DVec3, world_velocity: DVec3, half_exposure: f64) -> DVec2 {
+    let to_p = p - camera.position;
+    let (z_p, reach_limit) = (to_p.dot(camera.forward), MAX_REACH * to_p.length());
+    let near = MOTION_NEAR.min(0.5 * z_p);
+    let depth = |q: DVec3| (q - camera.position).dot(camera.forward);
+    let h = world_velocity * half_exposure;
+    let plain = h.is_finite() && h.length() <= reach_limit && depth(p - h) >= near && depth(p + h) >= near;
+    let v = if plain {
+        match (camera.project(p - h), camera.project(p + h)) {
+            (Some(a), Some(b)) => b - a,
+            _ => DVec2::ZERO,
+        }
+    } else {
+        // Direction and length apart, so that neither overflows.
+        let m = world_velocity.abs().max_element();
+        if !(m > 0.0 && m.is_finite() && half_exposure > 0.0 && z_p > 0.0) {
+            return DVec2::ZERO;
+        }
+        let scaled = world_velocity / m;
+        let u = scaled.normalize();
+        let reach = (m * scaled.length() * half_exposure).min(reach_limit);
+        let rate = u.dot(camera.forward);
+        // The end on side `sign`, clipped where its depth reaches the near plane.
+        let end = |sign: f64| {
+            let towards = sign * rate;
+            let s = if z_p + reach * towards < near { (z_p - near) / -towards } else { reach };
+            camera.project(p + u * (sign * s))
+        };
+        match (end(-1.0), end(1.0)) {
+            (Some(a), Some(b)) => b - a,
+            _ => DVec2::ZERO,
+        }
+    };
+    let length = v.length();
+    if length > MAX_VELOCITY { v * (MAX_VELOCITY / length) } else { v }
 }
 
 /// The form factor from a floor point `p` (normal `n`) to a sphere of radius `r` at `c`:

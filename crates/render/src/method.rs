@@ -36,7 +36,9 @@ pub enum RenderError {
 pub struct RenderedFrame {
     /// Linear radiance; a stereo frame's eyes side by side (left eye left).
     pub image: LinearImage,
-    /// Radiance samples that were NaN or infinite and were discarded.
+    /// Radiance samples that were NaN or infinite and were discarded; for the filters, the
+    /// tracer's at the shutter's centre plus the G-buffer pixels the filter discarded
+    /// ([`crate::filters::nonfinite_pixels`]).
     pub nonfinite_samples: u64,
     /// Camera samples traced (0 for methods that trace none).
     pub camera_samples: u64,

@@ -7,7 +7,9 @@ use rand::{RngExt, SeedableRng};
 use render::filters::common::PassParams;
 use render::filters::guertin::{stochastic_tile, try_guertin_cpu};
 use render::filters::mcguire::try_mcguire_cpu;
-use render::filters::{FilterError, GBuffer, GuertinParams, McGuireParams, guertin_cpu, mcguire_cpu, tiles};
+use render::filters::{
+    FilterError, GBuffer, GuertinParams, McGuireParams, SKY_DEPTH as SKY, guertin_cpu, mcguire_cpu, tiles,
+};
 
 /// A G-buffer from a function of the pixel: (colour, depth, velocity).
 fn gbuffer(w: u32, h: u32, f: impl Fn(u32, u32) -> ([f32; 3], f32, [f32; 2])) -> GBuffer {
@@ -93,6 +95,50 @@ fn outputs_are_convex_combinations_of_the_inputs() {
                 }
             }
         }
+    }
+}
+
+#[test]
+fn colours_near_the_f32_maximum_give_the_scaled_image_not_infinities() {
+    // Issue 31, defect 2: a sky of 1e38 made the gathers' weighted sums overflow. Scaling
+    // every colour by 2^126 (exactly, a power of two) must scale the output by 2^126: the
+    // weighted means do not change, whatever their sums do.
+    let up = 2f32.powi(126);
+    for (seed, speed) in [(21, 14.0), (22, 90.0)] {
+        let g = random_gbuffer(53, 41, speed, seed);
+        let mut bright = g.clone();
+        for c in &mut bright.color {
+            *c = c.map(|v| v * up);
+        }
+        for ((name, out), (_, want)) in both(&bright, Some(12), None).iter().zip(&both(&g, Some(12), None)) {
+            for (i, (o, w)) in out.iter().zip(want).enumerate() {
+                for k in 0..3 {
+                    assert!(o[k].is_finite(), "{name} seed {seed} pixel {i}: {o:?}");
+                    assert!((o[k] / up - w[k]).abs() <= 1e-6, "{name} seed {seed} pixel {i}: {o:?} / 2^126 vs {w:?}");
+                }
+            }
+        }
+    }
+    // A sky at the largest f32 behind a moving square, every method setting at its limit:
+    // finite, and between the input's extremes.
+    let sky = f32::MAX;
+    let g = gbuffer(64, 36, |x, y| {
+        let inside = (20..34).contains(&x) && (10..26).contains(&y);
+        if inside { ([0.5, 1e38, 0.0], 2.0, [30.0, -7.0]) } else { ([sky, sky, 3e38], SKY, [0.0, 0.0]) }
+    });
+    let m = McGuireParams { samples: 1024, tile: 16, ..McGuireParams::default() };
+    let q = GuertinParams { samples: 1024, tile: 16, kappa: 1e-3, ..GuertinParams::default() };
+    for (name, out) in [("mcguire", mcguire_cpu(&g, &m)), ("guertin", guertin_cpu(&g, &q))] {
+        let mut blurred = 0;
+        for (i, (o, c)) in out.iter().zip(&g.color).enumerate() {
+            assert!(o.iter().all(|v| v.is_finite()), "{name} pixel {i}: {o:?}");
+            assert!(
+                o[0] >= 0.5 && o[0] <= sky && o[1] >= 1e38 && o[1] <= sky && o[2] >= 0.0 && o[2] <= 3e38,
+                "{name} {i}"
+            );
+            blurred += usize::from(o != c);
+        }
+        assert!(blurred > 100, "{name}: only {blurred} pixels blurred");
     }
 }
 
@@ -242,6 +288,9 @@ fn non_finite_colours_and_depths_stay_in_their_pixel() {
     // A constant image: every other pixel is the constant, as for the clean image.
     let mut clean = random_gbuffer(w, h, 40.0, 7);
     clean.color.fill([0.3, 0.6, 0.9]);
+    // The pixels passed through, which the renderer counts as discarded.
+    assert_eq!(render::filters::nonfinite_pixels(&clean), 0);
+    assert_eq!(render::filters::nonfinite_pixels(&spoil(&clean)), 5);
     let clean_out = both(&clean, Some(12), None);
     for ((name, out), (_, want)) in both(&spoil(&clean), Some(12), None).iter().zip(&clean_out) {
         for (i, (o, c)) in out.iter().zip(want).enumerate() {

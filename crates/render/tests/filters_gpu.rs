@@ -236,6 +236,41 @@ fn non_finite_colours_and_depths_stay_in_their_pixel_on_the_gpu() {
 }
 
 #[test]
+fn colours_near_the_f32_maximum_stay_finite_on_the_gpu_and_equal_the_twins() {
+    // Issue 31, defect 2: a 1e38 sky made the gathers' sums overflow to +Inf. Colours in
+    // [0, 2^126] (2^126 = 8.5e37), and a square moving over a sky of 3e38.
+    let Some(f) = filters("colours_near_the_f32_maximum_stay_finite_on_the_gpu_and_equal_the_twins") else { return };
+    let up = 2f32.powi(126);
+    let mut scaled = gbuffer(64, 36, 20.0, 9);
+    for c in &mut scaled.color {
+        *c = c.map(|v| v * up);
+    }
+    let mut sky = gbuffer(64, 36, 20.0, 10);
+    for (i, (c, (z, v))) in sky.color.iter_mut().zip(sky.depth.iter_mut().zip(&mut sky.velocity)).enumerate() {
+        let (x, y) = (i % 64, i / 64);
+        if !((20..34).contains(&x) && (10..26).contains(&y)) {
+            (*c, *z, *v) = ([3e38, 3e38, 1e38], render::filters::SKY_DEPTH, [0.0, 0.0]);
+        }
+    }
+    let m = McGuireParams { tile: 12, ..McGuireParams::default() };
+    let q = GuertinParams { tile: 12, ..GuertinParams::default() };
+    for (what, g, scale) in [("colours x 2^126", &scaled, up), ("3e38 sky", &sky, 3e38)] {
+        for (name, gpu, cpu) in [
+            ("mcguire", f.mcguire(g, &m).unwrap().color, mcguire_cpu(g, &m)),
+            ("guertin", f.guertin(g, &q).unwrap().color, guertin_cpu(g, &q)),
+        ] {
+            assert!(cpu.iter().flatten().all(|c| c.is_finite()), "{name} {what}: the twin");
+            for (i, (a, b)) in gpu.iter().zip(&cpu).enumerate() {
+                assert!(a.iter().all(|c| c.is_finite()), "{name} {what} pixel {i}: {a:?}");
+                for c in 0..3 {
+                    assert!((a[c] - b[c]).abs() <= TOLERANCE * scale, "{name} {what} pixel {i}: {a:?} vs {b:?}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn bad_sizes_are_errors_on_the_gpu_too() {
     let Some(f) = filters("bad_sizes_are_errors_on_the_gpu_too") else { return };
     let g = gbuffer(8, 4, 3.0, 6);

@@ -49,6 +49,43 @@ const VELOCITY_EPSILON: f32 = 1.0e-5;
 const HALF_PIXEL: f32 = 0.5;
 const Z_MIN: f32 = 1.0e-6;
 
+// A gather's second try scales every colour by 2^-64 and the mean back by 2^64 (exact
+// powers of two; see `OVERFLOW_SCALE` in the twin), taken only where the first try's mean
+// overflowed.
+const OVERFLOW_SCALE: f32 = 0x1p-64f;
+const OVERFLOW_UNSCALE: f32 = 0x1p+64f;
+
+// A gather's running sums (twin: `Gathered`).
+struct Gathered {
+    sum: vec3<f32>,
+    weight: f32,
+    lo: vec3<f32>,
+    hi: vec3<f32>,
+}
+
+fn gathered_start(c: vec3<f32>, w: f32, scale: f32) -> Gathered {
+    return Gathered(vec3<f32>(c.x * scale * w, c.y * scale * w, c.z * scale * w), w, c, c);
+}
+
+fn gathered_add(g: ptr<function, Gathered>, c: vec3<f32>, w: f32, scale: f32) {
+    (*g).weight += w;
+    let s = (*g).sum;
+    (*g).sum = vec3<f32>(s.x + c.x * scale * w, s.y + c.y * scale * w, s.z + c.z * scale * w);
+    (*g).lo = min((*g).lo, c);
+    (*g).hi = max((*g).hi, c);
+}
+
+fn gathered_mean(g: Gathered) -> vec3<f32> {
+    return vec3<f32>(g.sum.x / g.weight, g.sum.y / g.weight, g.sum.z / g.weight);
+}
+
+// The mean of a gather at OVERFLOW_SCALE, multiplied back and held between the smallest and
+// the largest colour gathered (only rounding can take it past them).
+fn gathered_rescaled_mean(g: Gathered) -> vec3<f32> {
+    let m = gathered_mean(g);
+    return clamp(vec3<f32>(m.x * OVERFLOW_UNSCALE, m.y * OVERFLOW_UNSCALE, m.z * OVERFLOW_UNSCALE), g.lo, g.hi);
+}
+
 // NaN or infinite: an all-ones exponent (comparisons with NaN may be optimised away).
 fn is_bad(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;

@@ -92,20 +92,43 @@ fn guertin_gather(@builtin(global_invocation_id) id: vec3<u32>) {
     let rc = max(lc, HALF_PIXEL);
     let nc = scale2(vc, 1.0 / rc);
     let wc = mix_normalize(wp, nc, clamp((lc - HALF_PIXEL) * params.inv_gamma, 0.0, 1.0));
-    let zp = depth[i];
-    let nf = f32(params.samples);
-    var total = nf / (params.kappa * rc);
-    var sum = vec3<f32>(cp.x * total, cp.y * total, cp.z * total);
     var share = 0.5;
     if params.variance != 0u {
         share = variance_at(x, y);
     }
-    let jj = j * params.jitter_scale;
+    let dirs = Directions(wn, wc, rmax, rc, share, j * params.jitter_scale);
+    var g = guertin_weigh(x, y, dirs, 1.0);
+    var mean = gathered_mean(g);
+    if is_bad3(mean) {
+        // Colours near the f32 maximum overflowed the sums (see OVERFLOW_SCALE).
+        g = guertin_weigh(x, y, dirs, OVERFLOW_SCALE);
+        mean = gathered_rescaled_mean(g);
+    }
+    store_color(i, mean);
+}
+
+// What a pixel's gather needs from its NeighborMax and its own velocity (twin:
+// `GuertinDirections`).
+struct Directions {
+    wn: vec2<f32>,
+    wc: vec2<f32>,
+    rmax: f32,
+    rc: f32,
+    share: f32,
+    jj: f32,
+}
+
+// The weighted sums of pixel (x, y)'s gather, every colour times `scale`.
+fn guertin_weigh(x: u32, y: u32, dirs: Directions, scale: f32) -> Gathered {
+    let i = index(x, y);
+    let zp = depth[i];
+    let nf = f32(params.samples);
+    var g = gathered_start(load_color(i), nf / (params.kappa * dirs.rc), scale);
     for (var s = 0u; s < params.samples; s++) {
         // `s + 1` in integers (see the twin).
-        let t = -1.0 + 2.0 * ((f32(s + 1u) + jj) * params.inv_samples_plus_one);
-        let d = select(wn, wc, along_centre(s, share));
-        let tt = t * rmax;
+        let t = -1.0 + 2.0 * ((f32(s + 1u) + dirs.jj) * params.inv_samples_plus_one);
+        let d = select(dirs.wn, dirs.wc, along_centre(s, dirs.share));
+        let tt = t * dirs.rmax;
         let sp = offset_pixel(x, y, scale2(d, tt));
         let k = index(sp.x, sp.y);
         let cs = load_color(k);
@@ -117,15 +140,14 @@ fn guertin_gather(@builtin(global_invocation_id) id: vec3<u32>) {
         let zs = depth[k];
         let f = z_compare(zp, zs);
         let b = z_compare(zs, zp);
-        let wa = abs(dot2(wc, d));
+        let wa = abs(dot2(dirs.wc, d));
         let wb = abs(dot2(scale2(vs, 1.0 / rs), d));
         let o = vec2<f32>(f32(sp.x) - f32(x), f32(sp.y) - f32(y));
         let dist = sqrt(dot2(o, o));
         var w = f * cone(dist, rs) * wb;
-        w += b * cone(dist, rc) * wa;
-        w += cylinder(dist, min(rs, rc)) * max(wa, wb) * 2.0;
-        total += w;
-        sum = vec3<f32>(sum.x + cs.x * w, sum.y + cs.y * w, sum.z + cs.z * w);
+        w += b * cone(dist, dirs.rc) * wa;
+        w += cylinder(dist, min(rs, dirs.rc)) * max(wa, wb) * 2.0;
+        gathered_add(&g, cs, w, scale);
     }
-    store_color(i, vec3<f32>(sum.x / total, sum.y / total, sum.z / total));
+    return g;
 }

@@ -21,10 +21,22 @@ fn mcguire_gather(@builtin(global_invocation_id) id: vec3<u32>) {
         store_color(i, cx);
         return;
     }
+    var g = mcguire_weigh(x, y, vn, 1.0);
+    var mean = gathered_mean(g);
+    if is_bad3(mean) {
+        // Colours near the f32 maximum overflowed the sums (see OVERFLOW_SCALE).
+        g = mcguire_weigh(x, y, vn, OVERFLOW_SCALE);
+        mean = gathered_rescaled_mean(g);
+    }
+    store_color(i, mean);
+}
+
+// The weighted sums of pixel (x, y)'s gather along `vn`, every colour times `scale`.
+fn mcguire_weigh(x: u32, y: u32, vn: vec2<f32>, scale: f32) -> Gathered {
+    let i = index(x, y);
     let zx = depth[i];
     let rx = max(length2(velocity[i]), HALF_PIXEL);
-    var weight = 1.0 / rx;
-    var sum = vec3<f32>(cx.x * weight, cx.y * weight, cx.z * weight);
+    var g = gathered_start(load_color(i), 1.0 / rx, scale);
     let j = hash_jitter(x, y, params.seed);
     let n = params.samples;
     let centre = (n - 1u) / 2u;
@@ -47,8 +59,7 @@ fn mcguire_gather(@builtin(global_invocation_id) id: vec3<u32>) {
         let f = soft_depth_compare(zx, zy, params.inv_soft_z_extent);
         let b = soft_depth_compare(zy, zx, params.inv_soft_z_extent);
         let a = f * cone(dist, ry) + b * cone(dist, rx) + cylinder(dist, ry) * cylinder(dist, rx) * 2.0;
-        weight += a;
-        sum = vec3<f32>(sum.x + cy.x * a, sum.y + cy.y * a, sum.z + cy.z * a);
+        gathered_add(&g, cy, a, scale);
     }
-    store_color(i, vec3<f32>(sum.x / weight, sum.y / weight, sum.z / weight));
+    return g;
 }

@@ -106,6 +106,65 @@ pub const VELOCITY_EPSILON: f32 = 1.0e-5;
 /// still (half a pixel, both papers).
 pub const HALF_PIXEL: f32 = 0.5;
 
+/// The colour scale of a gather's second try, 2^-64: a gather whose weighted mean came out
+/// non-finite from finite inputs overflowed its sum (colours near `f32::MAX` times weights
+/// that add up to more than 1), and is gathered again with every colour times this, the
+/// mean multiplied back by [`OVERFLOW_UNSCALE`]. Powers of two scale exactly, so the second
+/// try is the first one's arithmetic with the exponents shifted: the right mean, not a clamp.
+/// 2^-64 leaves room for any weight total up to 2^64 (the largest, Guertin's centre weight
+/// at the design's smallest kappa with 1024 samples, is about 2^21); colours below about
+/// 2^-62, which the shift takes into the subnormals, are at most 2^-100 of the overflowing
+/// ones. Ordinary pixels never take the second try, so their bits are unchanged.
+pub const OVERFLOW_SCALE: f32 = f32::from_bits(0x1f80_0000);
+/// 2^64, the inverse of [`OVERFLOW_SCALE`].
+pub const OVERFLOW_UNSCALE: f32 = f32::from_bits(0x5f80_0000);
+
+/// A gather's running sums: the WGSL struct `Gathered`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Gathered {
+    /// Sum of weight times (scaled) colour.
+    pub sum: [f32; 3],
+    /// Sum of the weights.
+    pub weight: f32,
+    /// Per channel, the smallest unscaled colour gathered.
+    pub lo: [f32; 3],
+    /// Per channel, the largest unscaled colour gathered.
+    pub hi: [f32; 3],
+}
+
+impl Gathered {
+    /// The sums with the pixel's own colour `c` (unscaled) at weight `w`, scaled by `scale`.
+    pub fn start(c: [f32; 3], w: f32, scale: f32) -> Gathered {
+        Gathered { sum: [c[0] * scale * w, c[1] * scale * w, c[2] * scale * w], weight: w, lo: c, hi: c }
+    }
+
+    /// Adds colour `c` (unscaled) at weight `w`, scaled by `scale`.
+    pub fn add(&mut self, c: [f32; 3], w: f32, scale: f32) {
+        self.weight += w;
+        self.sum = [self.sum[0] + c[0] * scale * w, self.sum[1] + c[1] * scale * w, self.sum[2] + c[2] * scale * w];
+        self.lo = [self.lo[0].min(c[0]), self.lo[1].min(c[1]), self.lo[2].min(c[2])];
+        self.hi = [self.hi[0].max(c[0]), self.hi[1].max(c[1]), self.hi[2].max(c[2])];
+    }
+
+    /// The weighted mean of a gather at scale 1.
+    pub fn mean(&self) -> [f32; 3] {
+        [self.sum[0] / self.weight, self.sum[1] / self.weight, self.sum[2] / self.weight]
+    }
+
+    /// The weighted mean of a gather at [`OVERFLOW_SCALE`], multiplied back. A mean of
+    /// colours within a few units in the last place of `f32::MAX` can round past it; a
+    /// weighted mean with non-negative weights lies between the smallest and the largest
+    /// colour gathered, so it is held there (a correction of rounding only).
+    pub fn rescaled_mean(&self) -> [f32; 3] {
+        let m = self.mean();
+        [
+            (m[0] * OVERFLOW_UNSCALE).clamp(self.lo[0], self.hi[0]),
+            (m[1] * OVERFLOW_UNSCALE).clamp(self.lo[1], self.hi[1]),
+            (m[2] * OVERFLOW_UNSCALE).clamp(self.lo[2], self.hi[2]),
+        ]
+    }
+}
+
 /// `x` is NaN or infinite: an all-ones exponent (WGSL has no `isNan`, and comparisons with
 /// NaN may be optimised away).
 pub fn is_bad(x: f32) -> bool {

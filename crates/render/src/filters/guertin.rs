@@ -45,8 +45,8 @@
 //! steer a following FXAA pass (section 4.5), is not produced: there is no FXAA pass here.
 
 use super::common::{
-    HALF_PIXEL, PassParams, cone, cylinder, dot2, halton_jitter, index, is_bad, is_bad3, length2, offset_pixel, scale2,
-    tile_index, tile_offset_random, z_compare,
+    Gathered, HALF_PIXEL, OVERFLOW_SCALE, PassParams, cone, cylinder, dot2, halton_jitter, index, is_bad, is_bad3,
+    length2, offset_pixel, scale2, tile_index, tile_offset_random, z_compare,
 };
 use rayon::prelude::*;
 
@@ -153,12 +153,53 @@ pub fn guertin_gather_one(
     let rc = lc.max(HALF_PIXEL);
     let nc = scale2(vc, 1.0 / rc);
     let wc = mix_normalize(wp, nc, ((lc - HALF_PIXEL) * p.inv_gamma).clamp(0.0, 1.0));
+    let share = if p.variance != 0 { variance_at(p, variance, x, y) } else { 0.5 };
+    let dirs = GuertinDirections { wn, wc, rmax, rc, share, jj: j * p.jitter_scale };
+    let weigh = |scale: f32| guertin_weigh(p, color, depth, velocity, &dirs, x, y, scale);
+    let mean = weigh(1.0).mean();
+    if !is_bad3(mean) {
+        return mean;
+    }
+    // Colours near `f32::MAX` overflowed the sums: see `OVERFLOW_SCALE`.
+    weigh(OVERFLOW_SCALE).rescaled_mean()
+}
+
+/// What a pixel's gather needs from its NeighborMax and its own velocity: the WGSL struct
+/// `Directions`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GuertinDirections {
+    /// The dominant direction, norm(v_max).
+    pub wn: [f32; 2],
+    /// The centre direction.
+    pub wc: [f32; 2],
+    /// |v_max|.
+    pub rmax: f32,
+    /// The pixel's speed, at least half a pixel.
+    pub rc: f32,
+    /// The share of the samples along the centre direction.
+    pub share: f32,
+    /// The pixel's jitter times eta phi / N.
+    pub jj: f32,
+}
+
+/// The weighted sums of pixel (x, y)'s gather, every colour times `scale`: the WGSL
+/// function `guertin_weigh`.
+#[allow(clippy::too_many_arguments)]
+pub fn guertin_weigh(
+    p: &PassParams,
+    color: &[[f32; 3]],
+    depth: &[f32],
+    velocity: &[[f32; 2]],
+    dirs: &GuertinDirections,
+    x: u32,
+    y: u32,
+    scale: f32,
+) -> Gathered {
+    let GuertinDirections { wn, wc, rmax, rc, share, jj } = *dirs;
+    let i = index(p, x, y);
     let zp = depth[i];
     let nf = p.samples as f32;
-    let mut total = nf / (p.kappa * rc);
-    let mut sum = [cp[0] * total, cp[1] * total, cp[2] * total];
-    let share = if p.variance != 0 { variance_at(p, variance, x, y) } else { 0.5 };
-    let jj = j * p.jitter_scale;
+    let mut g = Gathered::start(color[i], nf / (p.kappa * rc), scale);
     for s in 0..p.samples {
         // `s + 1` in integers, then one float addition: a compiler may reassociate
         // `s + jj + 1` (Mesa's does), and at 16 + jj one last-bit step moves a sample by
@@ -187,10 +228,9 @@ pub fn guertin_gather_one(
         let mut w = f * cone(dist, rs) * wb;
         w += b * cone(dist, rc) * wa;
         w += cylinder(dist, rs.min(rc)) * wa.max(wb) * 2.0;
-        total += w;
-        sum = [sum[0] + cs[0] * w, sum[1] + cs[1] * w, sum[2] + cs[2] * w];
+        g.add(cs, w, scale);
     }
-    [sum[0] / total, sum[1] / total, sum[2] / total]
+    g
 }
 
 /// Pass `guertin_gather` over the whole image (rows in parallel; each pixel's result does

@@ -5,15 +5,16 @@
 //! and both moving (the product of cylinders, twice).
 
 use super::common::{
-    HALF_PIXEL, PassParams, cone, cylinder, dot2, hash_jitter, index, is_bad, is_bad3, length2, offset_pixel,
-    soft_depth_compare, tile_index,
+    Gathered, HALF_PIXEL, OVERFLOW_SCALE, PassParams, cone, cylinder, dot2, hash_jitter, index, is_bad, is_bad3,
+    length2, offset_pixel, soft_depth_compare, tile_index,
 };
 use rayon::prelude::*;
 
 use super::{FilterError, GBuffer, McGuireParams, check_gbuffer, tiles};
 
 /// The gather of pixel (x, y): `color`, `depth` are the G-buffer's, `velocity` the encoded
-/// one and `neighbor_max` the plain NeighborMax.
+/// one and `neighbor_max` the plain NeighborMax. A pixel whose weighted mean overflows
+/// (colours near `f32::MAX`) is gathered again at [`OVERFLOW_SCALE`] (see there).
 pub fn mcguire_gather_one(
     p: &PassParams,
     color: &[[f32; 3]],
@@ -32,13 +33,34 @@ pub fn mcguire_gather_one(
     if length2(vn) <= HALF_PIXEL {
         return cx;
     }
+    let weigh = |scale: f32| mcguire_weigh(p, color, depth, velocity, vn, x, y, scale);
+    let mean = weigh(1.0).mean();
+    if !is_bad3(mean) {
+        return mean;
+    }
+    weigh(OVERFLOW_SCALE).rescaled_mean()
+}
+
+/// The weighted sums of pixel (x, y)'s gather along `vn` (its tile's NeighborMax), every
+/// colour times `scale`: the WGSL function `mcguire_weigh`.
+#[allow(clippy::too_many_arguments)]
+pub fn mcguire_weigh(
+    p: &PassParams,
+    color: &[[f32; 3]],
+    depth: &[f32],
+    velocity: &[[f32; 2]],
+    vn: [f32; 2],
+    x: u32,
+    y: u32,
+    scale: f32,
+) -> Gathered {
+    let i = index(p, x, y);
     let zx = depth[i];
     let rx = length2(velocity[i]).max(HALF_PIXEL);
-    let mut weight = 1.0 / rx;
-    let mut sum = [cx[0] * weight, cx[1] * weight, cx[2] * weight];
+    let mut g = Gathered::start(color[i], 1.0 / rx, scale);
     let j = hash_jitter(x, y, p.seed);
     let n = p.samples;
-    // The paper skips the sample nearest t = 0: the pixel itself, already in `sum`.
+    // The paper skips the sample nearest t = 0: the pixel itself, already in `g`.
     let centre = (n - 1) / 2;
     for s in 0..n {
         if s == centre && n > 1 {
@@ -61,10 +83,9 @@ pub fn mcguire_gather_one(
         let f = soft_depth_compare(zx, zy, p.inv_soft_z_extent);
         let b = soft_depth_compare(zy, zx, p.inv_soft_z_extent);
         let a = f * cone(dist, ry) + b * cone(dist, rx) + cylinder(dist, ry) * cylinder(dist, rx) * 2.0;
-        weight += a;
-        sum = [sum[0] + cy[0] * a, sum[1] + cy[1] * a, sum[2] + cy[2] * a];
+        g.add(cy, a, scale);
     }
-    [sum[0] / weight, sum[1] / weight, sum[2] / weight]
+    g
 }
 
 /// Pass `mcguire_gather` over the whole image (rows in parallel; each pixel's result does

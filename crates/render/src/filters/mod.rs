@@ -22,7 +22,13 @@
 //! Non-finite input: a pixel whose colour has a NaN or infinite channel, or whose depth is
 //! NaN or infinite (the sky is [`SKY_DEPTH`], not infinity), passes through unchanged (the
 //! filter invents no value for it), and as a sample it has zero weight in every gather, so
-//! it never spreads. A non-finite velocity counts as zero.
+//! it never spreads. A non-finite velocity counts as zero. [`nonfinite_pixels`] counts the
+//! pixels passed through so, which the renderer reports with the tracer's discarded samples.
+//!
+//! Huge finite input: the weighted sums of colours near `f32::MAX` overflow where their mean
+//! does not; such a pixel (only such a pixel, so ordinary images keep their bits) is gathered
+//! a second time with every colour scaled by an exact power of two
+//! ([`common::OVERFLOW_SCALE`]), which gives the same mean. Finite input gives finite output.
 
 pub mod common;
 pub mod gpu;
@@ -170,6 +176,12 @@ pub enum FilterError {
 pub const MAX_SAMPLES: u32 = 1024;
 /// Largest tile size accepted.
 pub const MAX_TILE: u32 = 1024;
+
+/// The pixels of `g` whose colour has a NaN or infinite channel or whose depth is NaN or
+/// infinite: both filters pass each through unchanged and give it zero weight as a sample.
+pub fn nonfinite_pixels(g: &GBuffer) -> u64 {
+    g.color.iter().zip(&g.depth).filter(|(c, z)| common::is_bad3(**c) || common::is_bad(**z)).count() as u64
+}
 
 /// Checks the G-buffer's sizes.
 pub fn check_gbuffer(g: &GBuffer) -> Result<(), FilterError> {
