@@ -556,6 +556,36 @@ fn shade_point(ti: u32, iv: Interval, s: vec2<f32>) -> ShadePoint {
     return ShadePoint(sphere, hit, normalize3(camera_ray(s)));
 }
 
+// A sky near f32's maximum makes the running sum of finite lighting samples overflow. Once
+// a sample or the sum exceeds SCALE_FROM (2^100, far above any radiance of an ordinary
+// scene), the sum continues scaled by 2^-64 (exact: a power of two) and the mean is scaled
+// back. The test is on magnitudes, not on an overflow having happened: llvmpipe's compiler
+// may assume an addition never overflows and drop a check of its result. Sums below the
+// threshold take the plain additions.
+const SUM_SCALE: f32 = 5.421010862427522e-20;
+const SUM_UNSCALE: f32 = 18446744073709551616.0;
+const SCALE_FROM: f32 = 1.2676506002282294e30;
+
+fn needs_scaling(sum: vec3<f32>, l: vec3<f32>) -> bool {
+    let m = max(abs(sum), abs(l));
+    return max(m.x, max(m.y, m.z)) > SCALE_FROM;
+}
+
+fn add_lighting(sum: vec3<f32>, l: vec3<f32>, scaled: bool) -> vec3<f32> {
+    if scaled {
+        return sum + l * SUM_SCALE;
+    }
+    return sum + l;
+}
+
+fn lighting_mean(sum: vec3<f32>, scaled: bool) -> vec3<f32> {
+    let mean = sum / f32(ap.lighting);
+    if scaled {
+        return min(mean * SUM_UNSCALE, vec3<f32>(F32_MAX));
+    }
+    return mean;
+}
+
 // The colour the coverage specialisation (SHADE false) gives a surface.
 fn coverage_colour(ti: u32) -> vec3<f32> {
     if triangles[ti].flags.x == SPHERE {
@@ -682,18 +712,23 @@ fn analytic_pixel(@builtin(global_invocation_id) gid: vec3<u32>) {
                     end = min(st.j + ap.light_chunk, ap.lighting);
                 }
                 var sum = st.sum.xyz;
+                var scaled = st.sum.w != 0.0;
                 for (var j = st.j; j < end; j++) {
                     let l = radiance_from(sp.sphere, seed, first + j, sp.dir, sp.hit);
                     if is_finite3(l) {
-                        sum += l;
+                        if !scaled && needs_scaling(sum, l) {
+                            scaled = true;
+                            sum = sum * SUM_SCALE;
+                        }
+                        sum = add_lighting(sum, l, scaled);
                     } else {
                         st.bad += 1u;
                     }
                 }
-                st.sum = vec4<f32>(sum, 0.0);
+                st.sum = vec4<f32>(sum, select(0.0, 1.0, scaled));
                 st.j = end;
                 finished = end >= ap.lighting;
-                colour = sum / f32(ap.lighting);
+                colour = lighting_mean(sum, scaled);
             } else {
                 colour = coverage_colour(st.ti);
             }

@@ -239,3 +239,30 @@ fn the_gpu_refuses_a_sphere_that_wraps_over_within_the_shutter_as_the_cpu_does()
     let cpu = render::analytic::check_motion(&s).unwrap_err();
     assert_eq!(e.to_string(), cpu.to_string());
 }
+
+/// A uniform sky of 1e38 (legal: finite in f32): 16 lighting samples of about 4.5e37 each
+/// sum past f32's maximum. The kernel and its twin continue the sum scaled by 2^-64 and so
+/// give the f64 rasterizer's floor within the noise; the kernel used to write f32::MAX
+/// (found by the hard-case matrix).
+#[test]
+fn a_sky_near_the_f32_maximum_shades_finite_and_like_the_f64_rasterizer() {
+    let mut s = study_scene(16, 9, 4, 1.0);
+    s.lighting.environment = study::scene::Environment::Uniform { radiance: [1e38, 1e38, 1e38] };
+    let params = AnalyticParams { tessellation: 16, lighting_samples: Some(16), ..PARAMS };
+    let env_map = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let tables = EnvTables::new(&env_map);
+    let t = twin(&s, &tables, &params, true);
+    let f64_frame = render::analytic::render_frame(&s, &env_map, &params).unwrap();
+    let mean = |p: &[[f32; 3]]| p.iter().map(|c| f64::from(c[0])).sum::<f64>() / p.len() as f64;
+    let (a, b) = (mean(&t.image.pixels), mean(&f64_frame.eyes[0].pixels));
+    assert!(t.image.pixels.iter().flatten().all(|c| c.is_finite()));
+    assert!((a - b).abs() < 0.05 * b, "twin {a:e} vs f64 {b:e}");
+    let Some((gpu, env)) = gpu_and_env("a_sky_near_the_f32_maximum_shades_finite_and_like_the_f64_rasterizer", &s)
+    else {
+        return;
+    };
+    let prepared = Prepared::new(&s, &s.views[0], env.tables(), &params).unwrap();
+    let g = gpu.render_view(&prepared, &env, Specialisation::of(&s), true).unwrap();
+    let (worst, off) = compare(&g.image.pixels, &t.image.pixels, 1e-3);
+    assert!(off == 0, "{off} pixels differ from the twin, worst {worst:e}");
+}

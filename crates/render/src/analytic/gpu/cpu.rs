@@ -452,17 +452,42 @@ fn shade(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2, seed: u32
     let (p, ap) = (&k.prepared.frame, &k.prepared.raster);
     let sp = shade_point(k, tri, iv, s);
     let mut sum = Vec3::ZERO;
+    let mut scaled = false;
     let mut bad = 0;
     let first = (index * ap.supersampling * ap.supersampling + sub) * ap.lighting;
     for j in 0..ap.lighting {
         let l = radiance_from(p, &k.spec, k.env, &sp.sphere, seed, first + j, sp.dir, sp.hit);
         if is_finite3(l) {
-            sum += l;
+            if !scaled && needs_scaling(sum, l) {
+                scaled = true;
+                sum *= SUM_SCALE;
+            }
+            sum = add_lighting(sum, l, scaled);
         } else {
             bad += 1;
         }
     }
-    (sum / ap.lighting as f32, bad)
+    (lighting_mean(ap, sum, scaled), bad)
+}
+
+/// 2^-64 and 2^64 (`SUM_SCALE`, `SUM_UNSCALE` in WGSL): a running sum of finite lighting
+/// samples that could overflow f32 (a sky near its maximum) continues scaled, exactly, once
+/// a sample or the sum exceeds [`SCALE_FROM`] (2^100).
+const SUM_SCALE: f32 = 1.0 / 18_446_744_073_709_551_616.0;
+const SUM_UNSCALE: f32 = 18_446_744_073_709_551_616.0;
+const SCALE_FROM: f32 = 1.267_650_6e30;
+
+fn needs_scaling(sum: Vec3, l: Vec3) -> bool {
+    sum.abs().max(l.abs()).max_element() > SCALE_FROM
+}
+
+fn add_lighting(sum: Vec3, l: Vec3, scaled: bool) -> Vec3 {
+    if scaled { sum + l * SUM_SCALE } else { sum + l }
+}
+
+fn lighting_mean(ap: &RasterParams, sum: Vec3, scaled: bool) -> Vec3 {
+    let mean = sum / ap.lighting as f32;
+    if scaled { (mean * SUM_UNSCALE).min(Vec3::splat(f32::MAX)) } else { mean }
 }
 
 /// The kernel's body for pixel `(x, y)`: linear radiance (or coverage), the fraction of the
