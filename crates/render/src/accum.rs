@@ -17,7 +17,7 @@ use crate::gbuffer::instant_scene;
 use crate::io::LinearImage;
 
 /// Instants when a design does not set `instants`.
-pub const DEFAULT_INSTANTS: u32 = 8;
+pub const DEFAULT_INSTANTS: u32 = study::method::DEFAULT_INSTANTS;
 
 /// The instants K of `spec`.
 pub fn instant_count(spec: &MethodSpec) -> u32 {

@@ -19,7 +19,7 @@ use crate::filters::{FilterError, GpuFilters};
 use crate::gbuffer::{centre_time, gbuffers, instant_scene};
 use crate::io::LinearImage;
 use crate::method::{RenderError, RenderedFrame, compose_eyes, filter_seed, guertin_params, mcguire_params};
-use crate::tracer::gpu::{GpuEnvironment, GpuTracer, PendingFrame};
+use crate::tracer::gpu::{GpuEnvironment, GpuTracer, GpuTracerError, PendingFrame};
 
 /// The `--device` of a render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -97,7 +97,18 @@ struct Traced {
 }
 
 fn filter_error(e: FilterError) -> RenderError {
-    RenderError::Filter(e.to_string())
+    match e {
+        FilterError::BadParam { .. } => RenderError::Settings(format!("motion blur filter: {e}")),
+        e => RenderError::Filter(e.to_string()),
+    }
+}
+
+/// A GPU tracer's error: a frame its parameters cannot express is the scene's fault.
+fn tracer_error(e: GpuTracerError) -> RenderError {
+    match e {
+        GpuTracerError::Params(_) => RenderError::Scene(e.to_string()),
+        e => RenderError::Gpu(e.to_string()),
+    }
 }
 
 fn add_seconds(a: Option<f64>, b: Option<f64>) -> Option<f64> {
@@ -127,7 +138,7 @@ impl Submitted<'_> {
         match self {
             Submitted::Ready(levels) => Ok(levels),
             Submitted::Gpu(pending) => {
-                let frame = pending.finish().map_err(|e| RenderError::Gpu(e.to_string()))?;
+                let frame = pending.finish().map_err(tracer_error)?;
                 let mut levels: Vec<RenderedFrame> = frame
                     .prefixes
                     .into_iter()
@@ -248,7 +259,7 @@ impl<'env> Renderer<'env> {
     fn trace(&self, scene: &FrameScene) -> Result<Traced, RenderError> {
         Ok(match &self.gpu {
             Some(g) => {
-                let f = g.tracer.render_frame(scene, &g.env).map_err(|e| RenderError::Gpu(e.to_string()))?;
+                let f = g.tracer.render_frame(scene, &g.env).map_err(tracer_error)?;
                 Traced {
                     eyes: f.eyes,
                     nonfinite_samples: f.nonfinite_samples,
@@ -341,6 +352,7 @@ impl<'env> Renderer<'env> {
         let frame = match &self.gpu {
             Some(d) => d.analytic.render_frame(scene, &d.env, &params).map_err(|e| match e {
                 GpuAnalyticError::Settings(e) => settings(e),
+                e @ GpuAnalyticError::Params(_) => RenderError::Scene(e.to_string()),
                 e => RenderError::Gpu(e.to_string()),
             })?,
             None => crate::analytic::render_frame(scene, self.env, &params).map_err(settings)?,
@@ -355,11 +367,7 @@ impl<'env> Renderer<'env> {
 
     fn submit_tracer(&self, scene: &FrameScene, checkpoints: &[u32]) -> Result<Submitted<'_>, RenderError> {
         match &self.gpu {
-            Some(g) => g
-                .tracer
-                .submit_nested(scene, &g.env, checkpoints)
-                .map(Submitted::Gpu)
-                .map_err(|e| RenderError::Gpu(e.to_string())),
+            Some(g) => g.tracer.submit_nested(scene, &g.env, checkpoints).map(Submitted::Gpu).map_err(tracer_error),
             None => Ok(Submitted::Ready(
                 crate::tracer::render_frame_nested(scene, self.env, checkpoints)
                     .into_iter()

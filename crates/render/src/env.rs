@@ -26,7 +26,7 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use study::scene::{Environment, Lighting};
+use study::scene::{Environment, Lighting, MAX_RADIANCE};
 
 use crate::io::{LinearImage, decode_exr, decode_hdr};
 use crate::numeric::trig::{sin_cos_small, sin_cos_turns};
@@ -238,7 +238,7 @@ impl EnvironmentMap {
     /// or builds the uniform map; applies intensity and rotation.
     pub fn from_lighting(lighting: &Lighting) -> Result<EnvironmentMap, EnvError> {
         if !(lighting.intensity.is_finite() && lighting.intensity >= 0.0) {
-            return Err(EnvError::Parameter(format!("intensity {} must be finite and >= 0", lighting.intensity)));
+            return Err(EnvError::Parameter(format!("intensity {:e} must be finite and >= 0", lighting.intensity)));
         }
         if !lighting.rotation_y.is_finite() {
             return Err(EnvError::Parameter(format!("rotation_y {} must be finite", lighting.rotation_y)));
@@ -252,8 +252,11 @@ impl EnvironmentMap {
             }
             Environment::File { path } => (load_image(path)?, path.display().to_string()),
             Environment::Uniform { radiance } => {
-                if radiance.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
-                    return Err(EnvError::Parameter(format!("uniform radiance {radiance:?} must be finite and >= 0")));
+                if radiance.iter().any(|c| !(c.is_finite() && *c >= 0.0 && *c <= MAX_RADIANCE)) {
+                    return Err(EnvError::Parameter(format!(
+                        "uniform radiance [{:e}, {:e}, {:e}] must be finite, >= 0 and at most {MAX_RADIANCE:e}",
+                        radiance[0], radiance[1], radiance[2]
+                    )));
                 }
                 let mut img = LinearImage::new(8, 4);
                 img.pixels.fill(radiance.map(|c| c as f32));
@@ -290,15 +293,13 @@ impl EnvironmentMap {
             .iter()
             .map(|p| DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) * intensity)
             .collect();
-        if radiance.iter().any(|c| !c.is_finite()) {
-            return Err(EnvError::Parameter(format!("{name}: radiance times intensity {intensity} overflows")));
-        }
         let (wu, hu) = (w as usize, h as usize);
         // Weights are normalised by the largest luminance before summing so that huge
         // values (the sun in a real map) cannot overflow the sums.
-        if radiance.iter().any(|c| c.max_element() > f64::from(f32::MAX)) {
+        let peak = radiance.iter().map(|c| c.max_element()).fold(0.0, f64::max);
+        if peak.is_nan() || peak > MAX_RADIANCE {
             return Err(EnvError::Parameter(format!(
-                "{name}: radiance times intensity {intensity} exceeds the f32 range"
+                "{name}: radiance times intensity {intensity:e} reaches {peak:e}, above the limit of {MAX_RADIANCE:e} (f32::MAX / 2^20, so that renderers' sums stay finite)"
             )));
         }
         let max_lum = radiance.iter().map(|c| luminance(*c)).fold(0.0, f64::max);
@@ -896,5 +897,31 @@ mod tests {
         let d = DVec3::new(0.2, 0.5, -0.8);
         let expected = EnvironmentMap::from_image(&img, 1.0, 0.0, "x").unwrap().radiance(d);
         assert!((map.radiance(d) - expected).length() < 0.02 * expected.length());
+    }
+
+    #[test]
+    fn radiance_above_the_design_limit_is_refused_in_short_numbers() {
+        let peak = default_map(1024).pixels.iter().flatten().fold(0.0f32, |a, &b| a.max(b));
+        let bound = study::scene::DEFAULT_MAP_PEAK_RADIANCE;
+        assert!(f64::from(peak) <= bound && f64::from(peak) > 0.9 * bound, "{peak}");
+        for (environment, intensity, needle) in [
+            (Environment::Default { width: 64 }, 3e36, "radiance times intensity 3e36 reaches"),
+            (Environment::Default { width: 64 }, 1e300, "above the limit of 3.2"),
+            (Environment::Uniform { radiance: [1.0, 1e300, 1.0] }, 1.0, "uniform radiance [1e0, 1e300, 1e0]"),
+        ] {
+            let e = EnvironmentMap::from_lighting(&Lighting { environment, intensity, rotation_y: 0.0 })
+                .err()
+                .unwrap()
+                .to_string();
+            assert!(e.contains(needle) && e.len() < 300, "{e}");
+        }
+        let edge = MAX_RADIANCE / bound;
+        assert!(
+            EnvironmentMap::from_lighting(&Lighting {
+                intensity: edge,
+                ..lighting(Environment::Default { width: 64 })
+            })
+            .is_ok()
+        );
     }
 }

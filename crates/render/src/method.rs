@@ -29,6 +29,22 @@ pub enum RenderError {
     /// A post-process filter refused its input or settings, or its device failed.
     #[error("motion blur filter: {0}")]
     Filter(String),
+    /// The frame's scene is beyond what the method or device renders (e.g. the GPU's one
+    /// wrap of the sphere's path per exposure): the design's values, not the device, are
+    /// at fault.
+    #[error("{0}")]
+    Scene(String),
+}
+
+impl RenderError {
+    /// Whether the input is at fault (a method the build lacks, a request it cannot serve, a
+    /// design's settings or scene out of a renderer's range): exit code 2 on the command line.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(
+            self,
+            RenderError::NotAvailable(_) | RenderError::NotNested(_) | RenderError::Settings(_) | RenderError::Scene(_)
+        )
+    }
 }
 
 /// A rendered frame.
@@ -126,5 +142,23 @@ mod tests {
         }
         let e = RenderError::NotAvailable(Method::Analytic).to_string();
         assert!(e.contains("`analytic` is not available"), "{e}");
+    }
+
+    #[test]
+    fn settings_a_filter_refuses_are_bad_input() {
+        let design = study::design::Design::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
+        )
+        .unwrap();
+        let mut preset = design.preset("quick").unwrap();
+        (preset.width, preset.height, preset.samples_per_pixel) = (8, 4, vec![1; preset.samples_per_pixel.len()]);
+        let scene = design.frame_scene_with(&preset, &"M1-S3-T5-A1".parse().unwrap(), 3).unwrap();
+        let env = EnvironmentMap::from_lighting(&scene.lighting).unwrap();
+        let spec = MethodSpec { gamma: Some(0.0), ..MethodSpec::of(Method::Guertin) };
+        let e = crate::Renderer::cpu(&env).render(&spec, &scene).unwrap_err();
+        assert!(matches!(e, RenderError::Settings(_)) && e.is_bad_input(), "{e:?}");
+        assert!(e.to_string().contains("gamma"), "{e}");
+        assert!(!RenderError::Gpu("device lost".into()).is_bad_input());
+        assert!(RenderError::Scene("wraps twice".into()).is_bad_input());
     }
 }

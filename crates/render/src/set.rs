@@ -93,11 +93,13 @@ impl SetError {
     /// Whether the error comes from the user's input (design, environment map, output
     /// folder holding another set) rather than from writing.
     pub fn is_bad_input(&self) -> bool {
+        if let SetError::Method(e) = self {
+            return e.is_bad_input();
+        }
         matches!(
             self,
             SetError::Design(_)
                 | SetError::Environment(_)
-                | SetError::Method(RenderError::NotAvailable(_) | RenderError::NotNested(_))
                 | SetError::Device(DeviceError::NoGpu(_))
                 | SetError::Mismatch { .. }
                 | SetError::Incomplete { .. }

@@ -5,9 +5,25 @@
 //! the renderer documents (the filters' come from their papers).
 
 use std::fmt;
+use std::ops::RangeInclusive;
 use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
+
+/// The accumulation buffer's instants when a design does not set `instants`.
+pub const DEFAULT_INSTANTS: u32 = 8;
+/// The analytic rasterizer's `tessellation` (segments around the sphere's equator): the
+/// design accepts and the renderer renders exactly this range.
+pub const TESSELLATION_RANGE: RangeInclusive<u32> = 3..=4096;
+/// The analytic rasterizer's tessellation when a design does not set `tessellation`.
+pub const DEFAULT_TESSELLATION: u32 = 64;
+
+/// Triangles of the analytic rasterizer's sphere at `tessellation` segments: `rings =
+/// max(segments / 2, 2)` rings, a fan at each pole and two triangles per quad between.
+pub fn sphere_triangle_count(tessellation: u32) -> u64 {
+    let n = u64::from(tessellation);
+    2 * n * ((n / 2).max(2) - 1)
+}
 
 /// A rendering method. The tracer is the reference every other method is compared with.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]

@@ -265,6 +265,15 @@ pub enum Environment {
     },
 }
 
+/// The brightest radiance a design may light a scene with (the map's radiance times the
+/// lighting's intensity): f32's largest value over 2^20, so that a renderer's f32 sums of up
+/// to 2^20 such values (samples per pixel, filter taps, path contributions) stay finite.
+pub const MAX_RADIANCE: f64 = f32::MAX as f64 / (1u64 << 20) as f64;
+
+/// An upper bound on the radiance of the built-in default map (its key light is 150 at the
+/// centre, plus the glow, the fill and the sky); the renderer's tests hold its map to it.
+pub const DEFAULT_MAP_PEAK_RADIANCE: f64 = 160.0;
+
 /// The environment and how it is placed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Lighting {

@@ -54,11 +54,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         e => anyhow::Error::new(e),
     })?;
     let started = std::time::Instant::now();
-    let rendered = renderer.render(&spec, &scene).map_err(|e| match e {
-        render::RenderError::NotAvailable(_) | render::RenderError::Settings(_) => {
-            anyhow::Error::new(BadInput(e.to_string()))
-        }
-        e => anyhow::Error::new(e),
+    let rendered = renderer.render(&spec, &scene).map_err(|e| {
+        if e.is_bad_input() { anyhow::Error::new(BadInput(e.to_string())) } else { anyhow::Error::new(e) }
     })?;
     let (image, nonfinite) = (rendered.image, rendered.nonfinite_samples);
     let seconds = started.elapsed().as_secs_f64();

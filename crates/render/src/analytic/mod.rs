@@ -62,11 +62,11 @@ use shade::Shading;
 /// The per-pixel interval budget when a design does not set `intervals`.
 pub const DEFAULT_INTERVALS: u32 = 8;
 /// The sphere's segments around its equator when a design does not set `tessellation`.
-pub const DEFAULT_TESSELLATION: u32 = 64;
+pub const DEFAULT_TESSELLATION: u32 = study::method::DEFAULT_TESSELLATION;
 /// The interval budget's bounds.
 pub const INTERVALS_RANGE: std::ops::RangeInclusive<u32> = 4..=64;
-/// The largest tessellation (the design's own limit).
-pub const MAX_TESSELLATION: u32 = 4096;
+/// The largest tessellation (the design's own limit, `study::method::TESSELLATION_RANGE`).
+pub const MAX_TESSELLATION: u32 = *study::method::TESSELLATION_RANGE.end();
 /// The supersampling's bounds (sample points per pixel along each axis).
 pub const SUPERSAMPLING_RANGE: std::ops::RangeInclusive<u32> = 1..=8;
 
@@ -149,9 +149,12 @@ impl AnalyticParams {
         if !INTERVALS_RANGE.contains(&self.intervals) {
             return Err(AnalyticError::Settings(format!("intervals must lie in 4..=64, found {}", self.intervals)));
         }
-        if !(3..=MAX_TESSELLATION).contains(&self.tessellation) {
+        let tessellation = study::method::TESSELLATION_RANGE;
+        if !tessellation.contains(&self.tessellation) {
             return Err(AnalyticError::Settings(format!(
-                "tessellation must lie in 3..={MAX_TESSELLATION}, found {}",
+                "tessellation must lie in {}..={}, found {}",
+                tessellation.start(),
+                tessellation.end(),
                 self.tessellation
             )));
         }

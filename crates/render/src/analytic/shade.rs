@@ -126,6 +126,14 @@ impl<'a> Shading<'a> {
             }
         };
         let ray = Ray { origin, dir: self.camera.direction(s) };
+        // A sphere point facing away from the pixel's ray (a midpoint off the triangle, e.g.
+        // after compression merged intervals) would be shaded from the sphere's inside: no
+        // light reaches there (every shadow ray is occluded) and its path never escapes: its
+        // throughput sticks at the smallest subnormal, so it would bounce to `max_bounces`
+        // for a radiance of zero.
+        if surface == SurfaceKind::Sphere && hit.normal.dot(ray.dir) > 0.0 {
+            return ([0.0; 3], 0);
+        }
         let dims = dim::BOUNCE_BASE + dim::PER_BOUNCE * self.scene.integrator.max_bounces;
         let k = self.supersampling.max(1);
         let mut sampler =

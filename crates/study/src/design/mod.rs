@@ -27,6 +27,11 @@ mod scene;
 pub mod spec;
 mod validate;
 
+pub use validate::{
+    MAX_BOUNCES, MAX_FRAME_SAMPLES, MAX_FRAME_TRIANGLE_PIXELS, MAX_FRAMES, MAX_OCTAVES, MAX_PIXELS, MAX_SAMPLES,
+    MAX_SIDE,
+};
+
 pub use spec::*;
 
 /// Why a design file could not be used. Every variant names the file; parse and validation

@@ -7,8 +7,10 @@ use std::path::Path;
 
 use super::{Design, DesignError, EnvironmentKind, MaterialKind, MaterialLevel};
 use crate::ids::MethodTag;
-use crate::method::MethodSpec;
-use crate::scene::{Environment, Lighting, Material};
+use crate::method::{
+    DEFAULT_INSTANTS, DEFAULT_TESSELLATION, Method, MethodSpec, TESSELLATION_RANGE, sphere_triangle_count,
+};
+use crate::scene::{DEFAULT_MAP_PEAK_RADIANCE, Environment, Lighting, MAX_RADIANCE, Material};
 
 /// The largest image side (one eye) in pixels.
 pub const MAX_SIDE: u32 = 16384;
@@ -20,6 +22,22 @@ pub const MAX_FRAMES: u32 = 100_000;
 pub const MAX_SAMPLES: u32 = 1 << 20;
 /// The most octaves of a noise material.
 pub const MAX_OCTAVES: u32 = 32;
+/// The most bounces of a path (`integrator.max_bounces`). Light in this scene (a sphere on
+/// an open floor under the sky) leaves within a few bounces; 10000 is a furnace test's "no
+/// effective limit", and keeps every bounce's sampling dimensions within u32.
+pub const MAX_BOUNCES: u32 = 10_000;
+/// The most light paths (camera samples, or the analytic method's lighting samples) one
+/// frame of a stereo pair (both eyes) may need: 4K stereo at 4096 samples per pixel.
+pub const MAX_FRAME_SAMPLES: u64 = 1 << 36;
+/// The most triangle-pixel pairs one frame of the analytic method (both eyes, every sample
+/// point) may need: about `tessellation^2` triangles times the sample points.
+pub const MAX_FRAME_TRIANGLE_PIXELS: u64 = 1 << 36;
+
+/// A number for a message: plain where short, in scientific notation where plain would
+/// print hundreds of digits (1e300, 1e-300).
+fn num(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs()) { format!("{v}") } else { format!("{v:e}") }
+}
 
 impl Design {
     /// Two levels of one factor with the same name or the same value are ambiguous: the error
@@ -92,7 +110,7 @@ impl Design {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(self.invalid(table, None, key, format!("must be a positive number, found {v}")))
+                Err(self.invalid(table, None, key, format!("must be a positive number, found {}", num(v))))
             }
         };
         let albedo = |table: &str, index: Option<usize>, key: &str, a: [f64; 3]| -> Result<(), DesignError> {
@@ -121,6 +139,31 @@ impl Design {
         positive("camera", "focal_length", s.camera.focal_length)?;
         positive("camera", "sensor_width", s.camera.sensor_width)?;
         positive("sphere", "diameter", s.sphere.diameter)?;
+        // The stereo eyes sit beside the centre camera along its right axis, at its height:
+        // what holds for the centre camera's height holds for every eye.
+        if !(s.camera.height.is_finite() && s.camera.height > 0.0) {
+            return Err(self.invalid(
+                "camera",
+                None,
+                "height",
+                format!("must put the eye above the floor (a positive height), found {}", num(s.camera.height)),
+            ));
+        }
+        // The sphere's path runs through the focus point along the eyes' baseline, so it
+        // passes exactly `camera.distance` from every eye (and a sphere at rest sits there).
+        let radius = 0.5 * s.sphere.diameter;
+        if s.camera.distance <= radius {
+            return Err(self.invalid(
+                "camera",
+                None,
+                "distance",
+                format!(
+                    "{} puts the eye inside the sphere (radius {}) as it passes: the path runs `camera.distance` from every eye",
+                    num(s.camera.distance),
+                    num(radius)
+                ),
+            ));
+        }
         let rise = s.camera.height - 0.5 * s.sphere.diameter;
         if !s.camera.height.is_finite() || rise.abs() >= s.camera.distance {
             return Err(self.invalid(
@@ -128,8 +171,9 @@ impl Design {
                 None,
                 "height",
                 format!(
-                    "the camera must be less than `camera.distance` ({}) above the sphere's centre, found {rise}",
-                    s.camera.distance
+                    "the camera must be less than `camera.distance` ({}) above the sphere's centre, found {}",
+                    num(s.camera.distance),
+                    num(rise)
                 ),
             ));
         }
@@ -160,6 +204,14 @@ impl Design {
                 "must be at least 3 (soft shadows and colour bleeding need indirect light)",
             ));
         }
+        if s.integrator.max_bounces > MAX_BOUNCES {
+            return Err(self.invalid(
+                "integrator",
+                None,
+                "max_bounces",
+                format!("{} is above the limit of {MAX_BOUNCES}", s.integrator.max_bounces),
+            ));
+        }
         if !s.exposure.stops.is_finite() {
             return Err(self.invalid("exposure", None, "stops", "must be finite"));
         }
@@ -187,7 +239,7 @@ impl Design {
                     "factors.shutter",
                     Some(i),
                     "fraction",
-                    format!("must lie in [0, 1], found {}", t.fraction),
+                    format!("must lie in [0, 1], found {}", num(t.fraction)),
                 ));
             }
         }
@@ -248,6 +300,116 @@ impl Design {
                 ));
             }
         }
+        self.frame_work()
+    }
+
+    /// The method tables of the design: `[method]`, or each `[[factors.method]]` level.
+    fn method_tables(&self) -> Vec<(&'static str, Option<usize>, &MethodSpec)> {
+        let s = &self.spec;
+        if s.factors.method.is_empty() {
+            vec![("method", None, &s.method)]
+        } else {
+            s.factors.method.iter().enumerate().map(|(i, m)| ("factors.method", Some(i), m)).collect()
+        }
+    }
+
+    /// What one frame of each method costs, in every preset at every A level, within
+    /// [`MAX_FRAME_SAMPLES`] light paths and (the analytic method) [`MAX_FRAME_TRIANGLE_PIXELS`]
+    /// triangle-pixel pairs, counting both eyes of a stereo frame; the accumulation buffer's
+    /// samples per pixel within [`MAX_SAMPLES`], the tracer's limit. The error names the
+    /// method's setting that drives the cost where one is written, else the samples or the
+    /// image size.
+    fn frame_work(&self) -> Result<(), DesignError> {
+        let s = &self.spec;
+        for (table, index, m) in self.method_tables() {
+            if let Some(spi) = m.samples_per_instant {
+                let k = m.instants.unwrap_or(DEFAULT_INSTANTS);
+                let per_pixel = u64::from(k) * u64::from(spi);
+                if per_pixel > u64::from(MAX_SAMPLES) {
+                    return Err(self.invalid(
+                        table,
+                        index,
+                        "samples_per_instant",
+                        format!(
+                            "{k} instants x {spi} samples per instant is {per_pixel} samples per pixel, above the limit of {MAX_SAMPLES}"
+                        ),
+                    ));
+                }
+            }
+        }
+        for name in self.preset_names() {
+            let preset = self.preset(&name)?;
+            let written = s.presets.get(&name);
+            let size_table = if written.is_some_and(|p| p.width.is_some() || p.height.is_some()) {
+                format!("presets.{name}")
+            } else {
+                "sequence".to_owned()
+            };
+            let pixels = 2 * u64::from(preset.width) * u64::from(preset.height);
+            let what =
+                format!("preset `{name}` ({}x{} per eye, both eyes of a stereo frame)", preset.width, preset.height);
+            for (a, &spp) in preset.samples_per_pixel.iter().enumerate() {
+                let samples_key = if written.is_some_and(|p| p.samples_per_pixel.is_some()) {
+                    (format!("presets.{name}"), None)
+                } else {
+                    ("factors.samples".to_owned(), Some(a))
+                };
+                for (table, index, m) in self.method_tables() {
+                    let setting = |key: &'static str, set: bool| set.then_some(key);
+                    let (per_pixel, key, how) = match m.kind {
+                        Method::Tracer | Method::Mcguire | Method::Guertin => {
+                            (u64::from(spp), None, format!("{spp} samples per pixel"))
+                        }
+                        Method::Accum => {
+                            let k = m.instants.unwrap_or(DEFAULT_INSTANTS).max(1);
+                            let spi = m.samples_per_instant.unwrap_or(spp.div_ceil(k)).max(1);
+                            let key = setting("samples_per_instant", m.samples_per_instant.is_some())
+                                .or(setting("instants", m.instants.is_some()));
+                            (u64::from(k) * u64::from(spi), key, format!("{k} instants x {spi} samples per instant"))
+                        }
+                        Method::Analytic => {
+                            let n = u64::from(m.supersampling.unwrap_or(1));
+                            let l = m.lighting_samples.unwrap_or(spp).max(1);
+                            let key = setting("lighting_samples", m.lighting_samples.is_some())
+                                .or(setting("supersampling", m.supersampling.is_some()));
+                            (n * n * u64::from(l), key, format!("{} sample points x {l} lighting samples", n * n))
+                        }
+                    };
+                    // The key named: the method's setting that drives the cost where one is
+                    // written, else the A level's samples (light paths) or the image size.
+                    let limit = |total: u64, max: u64, unit: &str, how: &str, key: Option<&str>, by_samples: bool| {
+                        if total <= max {
+                            return Ok(());
+                        }
+                        let message = format!(
+                            "the `{}` method at {what}, A{}: {how} x {pixels} pixels is {} {unit} per frame, above the limit of {} (2^{})",
+                            m.kind,
+                            a + 1,
+                            num(total as f64),
+                            num(max as f64),
+                            max.ilog2()
+                        );
+                        Err(match key {
+                            Some(key) => self.invalid(table, index, key, message),
+                            None if by_samples && spp > 1 => {
+                                self.invalid(&samples_key.0, samples_key.1, "samples_per_pixel", message)
+                            }
+                            None => self.invalid(&size_table, None, "height", message),
+                        })
+                    };
+                    limit(per_pixel.saturating_mul(pixels), MAX_FRAME_SAMPLES, "light paths", &how, key, true)?;
+                    if m.kind == Method::Analytic {
+                        let n = u64::from(m.supersampling.unwrap_or(1));
+                        let triangles = sphere_triangle_count(m.tessellation.unwrap_or(DEFAULT_TESSELLATION));
+                        let key = setting("tessellation", m.tessellation.is_some())
+                            .or(setting("supersampling", m.supersampling.is_some()));
+                        let how = format!("{triangles} triangles x {} sample points per pixel", n * n);
+                        let pairs = triangles * n * n * pixels;
+                        limit(pairs, MAX_FRAME_TRIANGLE_PIXELS, "triangle-pixel pairs", &how, key, false)?;
+                    }
+                }
+            }
+        }
         Ok(())
     }
 
@@ -264,12 +426,7 @@ impl Design {
                 "a design with `[[factors.method]]` levels names each level's method there; remove `[method]`",
             ));
         }
-        let tables: Vec<(&str, Option<usize>, &MethodSpec)> = if levels.is_empty() {
-            vec![("method", None, &s.method)]
-        } else {
-            levels.iter().enumerate().map(|(i, m)| ("factors.method", Some(i), m)).collect()
-        };
-        for (table, index, m) in tables {
+        for (table, index, m) in self.method_tables() {
             for (key, applies) in m.settings() {
                 if !applies.contains(&m.kind) {
                     let names: Vec<&str> = applies.iter().map(|k| k.name()).collect();
@@ -291,7 +448,16 @@ impl Design {
             count("samples_per_instant", m.samples_per_instant, 1 << 20)?;
             count("taps", m.taps, 1024)?;
             count("tile", m.tile, 256)?;
-            count("tessellation", m.tessellation, 4096)?;
+            if let Some(v) = m.tessellation
+                && !TESSELLATION_RANGE.contains(&v)
+            {
+                return Err(self.invalid(
+                    table,
+                    index,
+                    "tessellation",
+                    format!("must lie in {}..={}, found {v}", TESSELLATION_RANGE.start(), TESSELLATION_RANGE.end()),
+                ));
+            }
             count("lighting_samples", m.lighting_samples, 1 << 16)?;
             count("supersampling", m.supersampling, 8)?;
             if let Some(v) = m.intervals
@@ -301,7 +467,7 @@ impl Design {
             }
             let real = |key: &str, v: Option<f64>, lo: f64, hi: f64| match v {
                 Some(v) if !(v.is_finite() && v >= lo && v <= hi) => {
-                    Err(self.invalid(table, index, key, format!("must lie in [{lo}, {hi}], found {v}")))
+                    Err(self.invalid(table, index, key, format!("must lie in [{lo}, {hi}], found {}", num(v))))
                 }
                 _ => Ok(()),
             };
@@ -309,7 +475,9 @@ impl Design {
             real("tau", m.tau, 0.0, 1e3)?;
             real("kappa", m.kappa, 1e-3, 1e6)?;
             real("eta", m.eta, 0.0, 1.0)?;
-            real("gamma", m.gamma, 0.0, 100.0)?;
+            // The filter divides by gamma in f32: zero, or a value that rounds to zero there,
+            // cannot render.
+            real("gamma", m.gamma, 1e-3, 100.0)?;
             real("phi", m.phi, 0.0, 1e3)?;
         }
         for kind in crate::Method::ALL {
@@ -475,9 +643,40 @@ impl Design {
                 if !radiance.iter().all(|c| c.is_finite() && *c >= 0.0) {
                     return Err(self.invalid(table, None, "radiance", "must be finite and non-negative"));
                 }
+                if let Some(&c) = radiance.iter().find(|&&c| c > MAX_RADIANCE) {
+                    return Err(self.invalid(
+                        table,
+                        None,
+                        "radiance",
+                        format!("{} is above the limit of {}", num(c), num(MAX_RADIANCE)),
+                    ));
+                }
                 Environment::Uniform { radiance }
             }
         };
+        // The brightest radiance the renderers see is the map's times the intensity; a map
+        // file's own pixels are checked when it is loaded.
+        let peak = match &environment {
+            Environment::Default { .. } => DEFAULT_MAP_PEAK_RADIANCE,
+            Environment::Uniform { radiance } => radiance.iter().copied().fold(0.0, f64::max),
+            Environment::File { .. } => 1.0,
+        };
+        if spec.intensity * peak > MAX_RADIANCE {
+            let of = match &environment {
+                Environment::File { .. } => String::new(),
+                _ => format!(" times the map's brightest radiance {} is {}", num(peak), num(spec.intensity * peak)),
+            };
+            return Err(self.invalid(
+                "lighting",
+                None,
+                "intensity",
+                format!(
+                    "{}{of}, above the limit of {} (f32::MAX / 2^20, so that renderers' sums stay finite)",
+                    num(spec.intensity),
+                    num(MAX_RADIANCE)
+                ),
+            ));
+        }
         Ok(Lighting { environment, intensity: spec.intensity, rotation_y: spec.rotation_degrees.to_radians() })
     }
 }
