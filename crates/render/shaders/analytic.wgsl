@@ -586,6 +586,10 @@ fn lighting_mean(sum: vec3<f32>, scaled: bool) -> vec3<f32> {
     return mean;
 }
 
+fn from_inside(sp: ShadePoint) -> bool {
+    return sp.hit.surface == SPHERE && dot3(sp.hit.normal, sp.dir) > 0.0;
+}
+
 // The colour the coverage specialisation (SHADE false) gives a surface.
 fn coverage_colour(ti: u32) -> vec3<f32> {
     if triangles[ti].flags.x == SPHERE {
@@ -713,7 +717,13 @@ fn analytic_pixel(@builtin(global_invocation_id) gid: vec3<u32>) {
                 }
                 var sum = st.sum.xyz;
                 var scaled = st.sum.w != 0.0;
-                for (var j = st.j; j < end; j++) {
+                // A sphere point facing away from the ray (a midpoint off its triangle) would
+                // be shaded from the sphere's inside, where no light arrives and no path
+                // escapes: zero, without bouncing to max_bounces (render::analytic::shade).
+                if from_inside(sp) {
+                    end = ap.lighting;
+                }
+                for (var j = st.j; j < end && !from_inside(sp); j++) {
                     let l = radiance_from(sp.sphere, seed, first + j, sp.dir, sp.hit);
                     if is_finite3(l) {
                         if !scaled && needs_scaling(sum, l) {

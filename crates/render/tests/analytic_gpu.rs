@@ -240,14 +240,16 @@ fn the_gpu_refuses_a_sphere_that_wraps_over_within_the_shutter_as_the_cpu_does()
     assert_eq!(e.to_string(), cpu.to_string());
 }
 
-/// A uniform sky of 1e38 (legal: finite in f32): 16 lighting samples of about 4.5e37 each
-/// sum past f32's maximum. The kernel and its twin continue the sum scaled by 2^-64 and so
-/// give the f64 rasterizer's floor within the noise; the kernel used to write f32::MAX
-/// (found by the hard-case matrix).
+/// The brightest legal sky (`study::scene::MAX_RADIANCE`, about 3.2e32): its lighting
+/// samples exceed 2^100, so the kernel and its twin sum them scaled by 2^-64 (the guard that
+/// keeps a sky near f32's maximum from overflowing the sum: under a 1e38 sky, accepted before
+/// the design's limit, the kernel wrote f32::MAX floors). The scaled sums must give the f64
+/// rasterizer's floor within the noise, and the kernel its twin's bits.
 #[test]
 fn a_sky_near_the_f32_maximum_shades_finite_and_like_the_f64_rasterizer() {
     let mut s = study_scene(16, 9, 4, 1.0);
-    s.lighting.environment = study::scene::Environment::Uniform { radiance: [1e38, 1e38, 1e38] };
+    let r = study::scene::MAX_RADIANCE;
+    s.lighting.environment = study::scene::Environment::Uniform { radiance: [r, r, r] };
     let params = AnalyticParams { tessellation: 16, lighting_samples: Some(16), ..PARAMS };
     let env_map = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let tables = EnvTables::new(&env_map);

@@ -113,8 +113,14 @@ const CASES: &[Case] = &[
         frame: 3,
     },
     Case {
-        name: "brightest sky (1e38, near the f32 maximum)",
-        edits: &[("lighting.environment", "{ kind = \"uniform\", radiance = [1e38, 1e38, 1e38] }")],
+        name: "brightest legal sky (3e32)",
+        edits: &[("lighting.environment", "{ kind = \"uniform\", radiance = [3e32, 3e32, 3e32] }")],
+        id: "M3-S3-T5-A5",
+        frame: 3,
+    },
+    Case {
+        name: "most bounces (10000, no Russian roulette)",
+        edits: &[("integrator.max_bounces", "10000"), ("integrator.russian_roulette_from", "10000")],
         id: "M3-S3-T5-A5",
         frame: 3,
     },

@@ -437,6 +437,13 @@ fn shade_point(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2) -> 
     ShadePoint { sphere, hit, dir: normalize3(camera_ray(ap, s)) }
 }
 
+/// A sphere point facing away from the ray: shaded from the sphere's inside, where no light
+/// arrives and no path escapes, so zero at once (`from_inside` in WGSL; the f64 rasterizer's
+/// `shade` does the same).
+fn from_inside(sp: &ShadePoint) -> bool {
+    sp.hit.surface == SPHERE && dot3(sp.hit.normal, sp.dir) > 0.0
+}
+
 /// The colour the coverage specialisation gives a surface (`coverage_colour` in WGSL).
 fn coverage_colour(tri: &GpuTriangle) -> Vec3 {
     if tri.flags[0] == SPHERE { Vec3::X } else { Vec3::Y }
@@ -451,6 +458,9 @@ fn shade(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2, seed: u32
     }
     let (p, ap) = (&k.prepared.frame, &k.prepared.raster);
     let sp = shade_point(k, tri, iv, s);
+    if from_inside(&sp) {
+        return (Vec3::ZERO, 0);
+    }
     let mut sum = Vec3::ZERO;
     let mut scaled = false;
     let mut bad = 0;
