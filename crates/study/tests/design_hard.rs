@@ -165,3 +165,13 @@ fn every_shipped_design_validates() {
         }
     }
 }
+
+/// Issue 31, defect 5's `fps = 1e-300`: frame times of 1e300 s put the sphere's centre at NaN,
+/// so no method drew it; such rates are refused.
+#[test]
+fn a_frame_rate_whose_times_overflow_the_path_is_refused() {
+    let nav = "navarro2011.toml";
+    refused(nav, "fps = 30.0", "fps = 1e-300", "sequence.fps", "must lie in [1e-3, 1e5]");
+    refused(nav, "fps = 30.0", "fps = 1e300", "sequence.fps", "must lie in [1e-3, 1e5]");
+    accepted(nav, "fps = 30.0", "fps = 0.001");
+}

@@ -12,6 +12,9 @@ use crate::method::{
 };
 use crate::scene::{DEFAULT_MAP_PEAK_RADIANCE, Environment, Lighting, MAX_RADIANCE, Material};
 
+/// The frame rates a design may set (frames per second).
+pub const FPS_RANGE: std::ops::RangeInclusive<f64> = 1e-3..=1e5;
+
 /// The largest image side (one eye) in pixels.
 pub const MAX_SIDE: u32 = 16384;
 /// The most pixels of one eye's image (a stereo frame holds twice as many).
@@ -125,6 +128,21 @@ impl Design {
         }
         self.limits("sequence", Some(s.sequence.width), Some(s.sequence.height), Some(s.sequence.frames))?;
         positive("sequence", "fps", s.sequence.fps)?;
+        // Frame times are (i + offset) / fps: at 1e-300 fps they overflow the sphere's path to
+        // NaN and no method draws the sphere.
+        if !FPS_RANGE.contains(&s.sequence.fps) {
+            return Err(self.invalid(
+                "sequence",
+                None,
+                "fps",
+                format!(
+                    "must lie in [{:e}, {:e}] frames per second, found {}",
+                    FPS_RANGE.start(),
+                    FPS_RANGE.end(),
+                    num(s.sequence.fps)
+                ),
+            ));
+        }
         if s.sequence.width == 0 || s.sequence.height == 0 {
             return Err(self.invalid("sequence", None, "width", "image size must be at least 1x1"));
         }
