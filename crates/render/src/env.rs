@@ -26,7 +26,14 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use study::scene::{Environment, Lighting, MAX_RADIANCE};
+use study::scene::{Environment, Lighting};
+
+/// The most radiance (times intensity) a map may hold: the largest f32, which the GPU's
+/// tables must represent. Designs are held to `study::scene::MAX_RADIANCE` (2^20 below it)
+/// when they are validated, so that sums stay finite; a map file's pixels are known only
+/// here, and the renderers keep their sums finite up to this limit (the tracer discards and
+/// counts samples that overflow f32, the filters and the analytic kernel rescale).
+const LOADER_LIMIT: f64 = f32::MAX as f64;
 
 use crate::io::{LinearImage, decode_exr, decode_hdr};
 use crate::numeric::trig::{sin_cos_small, sin_cos_turns};
@@ -252,9 +259,9 @@ impl EnvironmentMap {
             }
             Environment::File { path } => (load_image(path)?, path.display().to_string()),
             Environment::Uniform { radiance } => {
-                if radiance.iter().any(|c| !(c.is_finite() && *c >= 0.0 && *c <= MAX_RADIANCE)) {
+                if radiance.iter().any(|c| !(c.is_finite() && *c >= 0.0 && *c <= LOADER_LIMIT)) {
                     return Err(EnvError::Parameter(format!(
-                        "uniform radiance [{:e}, {:e}, {:e}] must be finite, >= 0 and at most {MAX_RADIANCE:e}",
+                        "uniform radiance [{:e}, {:e}, {:e}] must be finite, >= 0 and at most {LOADER_LIMIT:e}",
                         radiance[0], radiance[1], radiance[2]
                     )));
                 }
@@ -297,9 +304,9 @@ impl EnvironmentMap {
         // Weights are normalised by the largest luminance before summing so that huge
         // values (the sun in a real map) cannot overflow the sums.
         let peak = radiance.iter().map(|c| c.max_element()).fold(0.0, f64::max);
-        if peak.is_nan() || peak > MAX_RADIANCE {
+        if peak.is_nan() || peak > LOADER_LIMIT {
             return Err(EnvError::Parameter(format!(
-                "{name}: radiance times intensity {intensity:e} reaches {peak:e}, above the limit of {MAX_RADIANCE:e} (f32::MAX / 2^20, so that renderers' sums stay finite)"
+                "{name}: radiance times intensity {intensity:e} reaches {peak:e}, above the limit of {LOADER_LIMIT:e} (the largest f32)"
             )));
         }
         let max_lum = radiance.iter().map(|c| luminance(*c)).fold(0.0, f64::max);
@@ -906,7 +913,7 @@ mod tests {
         assert!(f64::from(peak) <= bound && f64::from(peak) > 0.9 * bound, "{peak}");
         for (environment, intensity, needle) in [
             (Environment::Default { width: 64 }, 3e36, "radiance times intensity 3e36 reaches"),
-            (Environment::Default { width: 64 }, 1e300, "above the limit of 3.2"),
+            (Environment::Default { width: 64 }, 1e300, "above the limit of 3.4"),
             (Environment::Uniform { radiance: [1.0, 1e300, 1.0] }, 1.0, "uniform radiance [1e0, 1e300, 1e0]"),
         ] {
             let e = EnvironmentMap::from_lighting(&Lighting { environment, intensity, rotation_y: 0.0 })
@@ -915,7 +922,7 @@ mod tests {
                 .to_string();
             assert!(e.contains(needle) && e.len() < 300, "{e}");
         }
-        let edge = MAX_RADIANCE / bound;
+        let edge = study::scene::MAX_RADIANCE / bound;
         assert!(
             EnvironmentMap::from_lighting(&Lighting {
                 intensity: edge,
