@@ -1,5 +1,5 @@
 //! The cost report (`blurlab cost`): a measured sweep (`study::cost::CostSweep`, made by
-//! `render::cost`) as `cost.csv`, `cost.md` and log-log plots of error against time (RMSE and
+//! `render::measure::cost`) as `cost.csv`, `cost.md` and log-log plots of error against time (RMSE and
 //! FLIP, PNG and SVG: one curve per method, the Monte Carlo 1/sqrt(N) slope drawn from the
 //! tracer's first point), and, given an analysis report (`report.json` of `blurlab analyze`),
 //! the perceptually equivalent groups marked on the curves with each group's cheapest member:
@@ -19,6 +19,7 @@ use serde_json::Value;
 use study::Method;
 use study::StimulusId;
 use study::cost::{CostRow, CostSweep};
+use study::method::CurveInput;
 
 use crate::plots::{Figure, PlotError, draw_legend, group_colour, log_log_chart, save_figure};
 
@@ -348,20 +349,14 @@ impl Figure for CostFigure {
 fn curves(rows: &[CostRow], error: impl Fn(&CostRow) -> f64) -> Vec<(String, Vec<(f64, f64)>)> {
     let mut by: BTreeMap<(Method, &str, u32), Vec<&CostRow>> = BTreeMap::new();
     for r in rows {
-        let input = if matches!(r.method, Method::Tracer) { 0 } else { r.input_spp };
+        let input = if r.method.curve_input() == CurveInput::Ignored { 0 } else { r.input_spp };
         by.entry((r.method, r.knob.as_str(), input)).or_default().push(r);
     }
     let top_input = |m: Method| by.keys().filter(|k| k.0 == m).map(|k| k.2).max();
     by.iter()
-        .filter(|((m, _, input), _)| !matches!(m, Method::Mcguire | Method::Guertin) || Some(*input) == top_input(*m))
+        .filter(|((m, _, input), _)| m.curve_input() != CurveInput::Highest || Some(*input) == top_input(*m))
         .map(|((m, knob, input), rs)| {
-            let label = match (m, *knob) {
-                (Method::Tracer, _) => "tracer (spp)".to_owned(),
-                (Method::Accum, _) => format!("accum (instants, {input} spp each)"),
-                (Method::Analytic, "supersampling") => "analytic (n x n points per pixel, 8 intervals)".to_owned(),
-                (Method::Analytic, _) => "analytic (intervals)".to_owned(),
-                _ => format!("{m} (taps, {input} spp in)"),
-            };
+            let label = m.curve_label(knob, *input);
             // Along the knob, coarsest first (measured times can be out of order).
             let mut rs = rs.clone();
             rs.sort_by_key(|r| r.value);

@@ -1,7 +1,7 @@
 //! Figures of the analytic rasterizer's approximations (`blurlab bench analytic-accuracy`):
 //! the histogram of the linear depth's relative error per visibility interval (the paper's
 //! Figure 10) and the tessellated sphere's coverage error against the true sphere as the
-//! tessellation grows. The numbers come from `render::analytic::accuracy`; this module only
+//! tessellation grows. The numbers come from `render::measure::analytic_accuracy`; this module only
 //! draws them (PNG and SVG, written atomically).
 
 use std::path::{Path, PathBuf};

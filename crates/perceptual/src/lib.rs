@@ -9,7 +9,7 @@
 //! width of one eye's image, so that a stereo frame (two eyes side by side) is judged at the
 //! resolution each eye is seen at.
 //!
-//! Both the cost report (`render::cost`) and the image-computable observer of the runner
+//! Both the cost report (`render::measure::cost`) and the image-computable observer of the runner
 //! (`--simulate flip`) use this crate; it links neither the renderer nor the runner.
 
 use std::fmt;

@@ -2,7 +2,7 @@
 //! [SPP] [none|mitsuba]` prints the same JSON as `blurlab bench tracer --json` (run from the
 //! workspace root so `stimuli/` and `bench/mitsuba_peer.py` are found).
 
-use render::tracer::bench::{BenchOptions, run_benchmark};
+use render::measure::tracer::{BenchOptions, run_benchmark};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();

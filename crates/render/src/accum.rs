@@ -9,26 +9,12 @@
 //! frame without motion during an open shutter needs no instants: it is one render with all
 //! the samples, bit for bit the tracer's frame.
 
-use study::method::MethodSpec;
+use study::method::AccumSettings;
 use study::scene::FrameScene;
 use study::seed::{mix, splitmix64};
 
 use crate::gbuffer::instant_scene;
 use crate::io::LinearImage;
-
-/// Instants when a design does not set `instants`.
-pub const DEFAULT_INSTANTS: u32 = study::method::DEFAULT_INSTANTS;
-
-/// The instants K of `spec`.
-pub fn instant_count(spec: &MethodSpec) -> u32 {
-    spec.instants.unwrap_or(DEFAULT_INSTANTS).max(1)
-}
-
-/// Samples per pixel of each instant: `samples_per_instant`, or the frame's samples shared
-/// among the K instants (rounded up, at least 1).
-pub fn samples_per_instant(spec: &MethodSpec, frame_spp: u32) -> u32 {
-    spec.samples_per_instant.unwrap_or_else(|| frame_spp.div_ceil(instant_count(spec))).max(1)
-}
 
 /// The time of instant `k` of `count` in the shutter `[open, close]`: the centre of its
 /// sub-interval, or a point in it drawn from `jitter_seed`.
@@ -42,16 +28,16 @@ pub fn instant_time(open: f64, close: f64, k: u32, count: u32, jitter_seed: Opti
 }
 
 /// The instantaneous scenes whose mean is the accumulation buffer's frame of `scene`.
-pub fn instant_scenes(scene: &FrameScene, spec: &MethodSpec) -> Vec<FrameScene> {
+pub fn instant_scenes(scene: &FrameScene, spec: &AccumSettings) -> Vec<FrameScene> {
     if !scene.needs_time_sampling() {
         return vec![scene.clone()];
     }
-    let count = instant_count(spec);
-    let spp = samples_per_instant(spec, scene.samples_per_pixel);
+    let count = spec.instant_count();
+    let spp = spec.samples_per_instant(scene.samples_per_pixel);
     let (open, close) = (scene.shutter.open, scene.shutter.close);
     // The jitter is one sequence per frame, shared by the eyes, so a stereo pair sees the
     // sphere at the same instants.
-    let jitter_seed = spec.jitter.unwrap_or(false).then(|| splitmix64(scene.views.first().map_or(0, |v| v.seed)));
+    let jitter_seed = spec.jittered().then(|| splitmix64(scene.views.first().map_or(0, |v| v.seed)));
     (0..count)
         .map(|k| {
             let mut instant = instant_scene(scene, instant_time(open, close, k, count, jitter_seed));
@@ -101,11 +87,11 @@ mod tests {
 
     #[test]
     fn samples_are_shared_among_instants_unless_set() {
-        let spec = MethodSpec { instants: Some(8), ..MethodSpec::of(study::Method::Accum) };
-        assert_eq!(samples_per_instant(&spec, 512), 64);
-        assert_eq!(samples_per_instant(&spec, 4), 1);
-        assert_eq!(samples_per_instant(&spec, 129), 17);
-        let spec = MethodSpec { samples_per_instant: Some(3), ..spec };
-        assert_eq!(samples_per_instant(&spec, 512), 3);
+        let spec = AccumSettings { instants: Some(8), ..AccumSettings::default() };
+        assert_eq!(spec.samples_per_instant(512), 64);
+        assert_eq!(spec.samples_per_instant(4), 1);
+        assert_eq!(spec.samples_per_instant(129), 17);
+        let spec = AccumSettings { samples_per_instant: Some(3), ..spec };
+        assert_eq!(spec.samples_per_instant(512), 3);
     }
 }

@@ -8,18 +8,15 @@ use std::fmt;
 use std::str::FromStr;
 
 use gpu::{AdapterChoice, GpuError, GpuInfo};
-use study::Method;
 use study::manifest::GpuRecord;
 use study::method::MethodSpec;
 use study::scene::FrameScene;
 
-use crate::analytic::gpu::{GpuAnalytic, GpuAnalyticError};
 use crate::env::EnvironmentMap;
-use crate::filters::{FilterError, GpuFilters};
-use crate::gbuffer::{centre_time, gbuffers, instant_scene};
-use crate::io::LinearImage;
-use crate::method::{RenderError, RenderedFrame, compose_eyes, filter_seed, guertin_params, mcguire_params};
-use crate::tracer::gpu::{GpuEnvironment, GpuTracer, GpuTracerError, PendingFrame};
+use crate::filters::FilterError;
+use crate::method::{RenderError, RenderedFrame, compose_eyes};
+use crate::methods::GpuHosts;
+use crate::tracer::gpu::PendingFrame;
 
 /// The `--device` of a render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -80,38 +77,7 @@ pub enum DeviceError {
     },
 }
 
-/// The GPU half of a [`Renderer`].
-struct GpuDevice {
-    tracer: GpuTracer,
-    env: GpuEnvironment,
-    filters: GpuFilters,
-    analytic: GpuAnalytic,
-}
-
-/// The eyes of one tracer render and what it cost.
-struct Traced {
-    eyes: Vec<LinearImage>,
-    nonfinite_samples: u64,
-    camera_samples: u64,
-    gpu_seconds: Option<f64>,
-}
-
-fn filter_error(e: FilterError) -> RenderError {
-    match e {
-        FilterError::BadParam { .. } => RenderError::Settings(format!("motion blur filter: {e}")),
-        e => RenderError::Filter(e.to_string()),
-    }
-}
-
-/// A GPU tracer's error: a frame its parameters cannot express is the scene's fault.
-fn tracer_error(e: GpuTracerError) -> RenderError {
-    match e {
-        GpuTracerError::Params(_) => RenderError::Scene(e.to_string()),
-        e => RenderError::Gpu(e.to_string()),
-    }
-}
-
-fn add_seconds(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+pub(crate) fn add_seconds(a: Option<f64>, b: Option<f64>) -> Option<f64> {
     match (a, b) {
         (Some(a), Some(b)) => Some(a + b),
         (a, b) => a.or(b),
@@ -121,7 +87,7 @@ fn add_seconds(a: Option<f64>, b: Option<f64>) -> Option<f64> {
 /// A device ready to render frames lit by one environment map.
 pub struct Renderer<'env> {
     env: &'env EnvironmentMap,
-    gpu: Option<GpuDevice>,
+    gpu: Option<GpuHosts>,
 }
 
 /// A frame on its way: rendered already (CPU) or submitted to the GPU.
@@ -138,7 +104,7 @@ impl Submitted<'_> {
         match self {
             Submitted::Ready(levels) => Ok(levels),
             Submitted::Gpu(pending) => {
-                let frame = pending.finish().map_err(tracer_error)?;
+                let frame = pending.finish().map_err(crate::methods::tracer_error)?;
                 let mut levels: Vec<RenderedFrame> = frame
                     .prefixes
                     .into_iter()
@@ -174,16 +140,10 @@ impl<'env> Renderer<'env> {
             Err(_) if choice == DeviceChoice::Auto => return Ok(Renderer::cpu(env)),
             Err(e) => return Err(DeviceError::NoGpu(e)),
         };
-        let adapter = ctx.info.short();
-        let setup = |source| DeviceError::Setup { adapter: adapter.clone(), source };
-        let filters = GpuFilters::new(ctx.clone())
-            .map_err(|e| DeviceError::Filters { adapter: adapter.clone(), source: Box::new(e) });
-        let opened = filters.and_then(|filters| {
-            let analytic = GpuAnalytic::new(ctx.clone()).map_err(|e| setup(e.into()))?;
-            GpuTracer::new(ctx).map_err(|e| setup(e.into())).and_then(|tracer| {
-                Ok(GpuDevice { env: tracer.environment(env).map_err(setup)?, tracer, filters, analytic })
-            })
-        });
+        let mut hosts = GpuHosts::new(ctx);
+        let opened = crate::methods::open_tracer_host(&mut hosts, env)
+            .and_then(|()| crate::methods::open_gpu(&mut hosts))
+            .map(|()| hosts);
         match opened {
             Ok(gpu) => Ok(Renderer { env, gpu: Some(gpu) }),
             // `auto` promises a render: a GPU that cannot run the tracer leaves it to the CPU.
@@ -202,7 +162,17 @@ impl<'env> Renderer<'env> {
 
     /// The GPU adapter, when rendering on one.
     pub fn gpu_info(&self) -> Option<&GpuInfo> {
-        self.gpu.as_ref().map(|g| g.tracer.info())
+        self.gpu.as_ref().map(|g| &g.ctx().info)
+    }
+
+    /// The environment map the frames are lit by.
+    pub fn env(&self) -> &'env EnvironmentMap {
+        self.env
+    }
+
+    /// A method's GPU host of type `T`, when rendering on a GPU.
+    pub fn gpu_host<T: std::any::Any>(&self) -> Option<&T> {
+        self.gpu.as_ref().and_then(GpuHosts::get)
     }
 
     /// The GPU adapter as manifests record it.
@@ -244,141 +214,9 @@ impl<'env> Renderer<'env> {
         scene: &FrameScene,
         checkpoints: &[u32],
     ) -> Result<Submitted<'_>, RenderError> {
-        if method.kind != Method::Tracer && checkpoints.iter().any(|&k| k > 0 && k < scene.samples_per_pixel) {
-            return Err(RenderError::NotNested(method.kind));
+        if !crate::methods::nests(method.kind()) && checkpoints.iter().any(|&k| k > 0 && k < scene.samples_per_pixel) {
+            return Err(RenderError::NotNested(method.kind()));
         }
-        match method.kind {
-            Method::Tracer => self.submit_tracer(scene, checkpoints),
-            Method::Accum => Ok(Submitted::Ready(vec![self.render_accum(method, scene)?])),
-            Method::Mcguire | Method::Guertin => Ok(Submitted::Ready(vec![self.render_filtered(method, scene)?])),
-            Method::Analytic => Ok(Submitted::Ready(vec![self.render_analytic(method, scene)?])),
-        }
-    }
-
-    /// The tracer's frame of `scene`, rendered to the end.
-    fn trace(&self, scene: &FrameScene) -> Result<Traced, RenderError> {
-        Ok(match &self.gpu {
-            Some(g) => {
-                let f = g.tracer.render_frame(scene, &g.env).map_err(tracer_error)?;
-                Traced {
-                    eyes: f.eyes,
-                    nonfinite_samples: f.nonfinite_samples,
-                    camera_samples: f.camera_samples,
-                    gpu_seconds: f.gpu_seconds,
-                }
-            }
-            None => {
-                let f = crate::tracer::render_frame(scene, self.env);
-                Traced {
-                    eyes: f.eyes,
-                    nonfinite_samples: f.nonfinite_samples,
-                    camera_samples: f.camera_samples,
-                    gpu_seconds: None,
-                }
-            }
-        })
-    }
-
-    /// The accumulation buffer: the mean of instantaneous tracer renders over the shutter.
-    fn render_accum(&self, method: &MethodSpec, scene: &FrameScene) -> Result<RenderedFrame, RenderError> {
-        let instants = crate::accum::instant_scenes(scene, method);
-        let mut images = Vec::with_capacity(instants.len());
-        let mut total = Traced { eyes: Vec::new(), nonfinite_samples: 0, camera_samples: 0, gpu_seconds: None };
-        for instant in &instants {
-            let traced = self.trace(instant)?;
-            total.nonfinite_samples += traced.nonfinite_samples;
-            total.camera_samples += traced.camera_samples;
-            total.gpu_seconds = add_seconds(total.gpu_seconds, traced.gpu_seconds);
-            images.push(traced.eyes);
-        }
-        Ok(RenderedFrame {
-            image: compose_eyes(crate::accum::average(&images)),
-            nonfinite_samples: total.nonfinite_samples,
-            camera_samples: total.camera_samples,
-            gpu_seconds: total.gpu_seconds,
-        })
-    }
-
-    /// A post-process filter over the G-buffer at the shutter's centre, eye by eye (each with
-    /// its own velocities, so nothing crosses the side-by-side seam). A frame without motion
-    /// during an open shutter has zero velocity everywhere, where the filters return their
-    /// input: it is the tracer's instant, unfiltered.
-    fn render_filtered(&self, method: &MethodSpec, scene: &FrameScene) -> Result<RenderedFrame, RenderError> {
-        let centre = instant_scene(scene, centre_time(&scene.shutter));
-        let traced = self.trace(&centre)?;
-        let mut gpu_seconds = traced.gpu_seconds;
-        let mut nonfinite_samples = traced.nonfinite_samples;
-        let eyes = if scene.needs_time_sampling() {
-            let mut eyes = Vec::with_capacity(scene.views.len());
-            for (g, view) in gbuffers(scene, traced.eyes).iter().zip(&scene.views) {
-                nonfinite_samples += crate::filters::nonfinite_pixels(g);
-                let seed = filter_seed(view.seed);
-                let color = match (&self.gpu, method.kind) {
-                    (Some(d), Method::Mcguire) => {
-                        let out = d.filters.mcguire(g, &mcguire_params(method, seed)).map_err(filter_error)?;
-                        gpu_seconds = add_seconds(gpu_seconds, out.gpu_seconds);
-                        out.color
-                    }
-                    (Some(d), _) => {
-                        let out = d.filters.guertin(g, &guertin_params(method, seed)).map_err(filter_error)?;
-                        gpu_seconds = add_seconds(gpu_seconds, out.gpu_seconds);
-                        out.color
-                    }
-                    (None, Method::Mcguire) => {
-                        crate::filters::mcguire::try_mcguire_cpu(g, &mcguire_params(method, seed))
-                            .map_err(filter_error)?
-                    }
-                    (None, _) => crate::filters::guertin::try_guertin_cpu(g, &guertin_params(method, seed))
-                        .map_err(filter_error)?,
-                };
-                eyes.push(LinearImage { width: g.width, height: g.height, pixels: color });
-            }
-            eyes
-        } else {
-            traced.eyes
-        };
-        Ok(RenderedFrame {
-            image: compose_eyes(eyes),
-            nonfinite_samples,
-            camera_samples: traced.camera_samples,
-            gpu_seconds,
-        })
-    }
-
-    /// The analytic rasterizer: its WGSL kernel on a GPU, else the f64 CPU rasterizer.
-    fn render_analytic(&self, method: &MethodSpec, scene: &FrameScene) -> Result<RenderedFrame, RenderError> {
-        let settings = |e: crate::analytic::AnalyticError| RenderError::Settings(e.to_string());
-        let params = crate::analytic::AnalyticParams::from_spec(method).map_err(settings)?;
-        let frame = match &self.gpu {
-            Some(d) => d.analytic.render_frame(scene, &d.env, &params).map_err(|e| match e {
-                GpuAnalyticError::Settings(e) => settings(e),
-                e @ GpuAnalyticError::Params(_) => RenderError::Scene(e.to_string()),
-                e => RenderError::Gpu(e.to_string()),
-            })?,
-            None => crate::analytic::render_frame(scene, self.env, &params).map_err(settings)?,
-        };
-        Ok(RenderedFrame {
-            image: compose_eyes(frame.eyes),
-            nonfinite_samples: frame.stats.nonfinite,
-            camera_samples: frame.lighting_samples,
-            gpu_seconds: frame.gpu_seconds,
-        })
-    }
-
-    fn submit_tracer(&self, scene: &FrameScene, checkpoints: &[u32]) -> Result<Submitted<'_>, RenderError> {
-        match &self.gpu {
-            Some(g) => g.tracer.submit_nested(scene, &g.env, checkpoints).map(Submitted::Gpu).map_err(tracer_error),
-            None => Ok(Submitted::Ready(
-                crate::tracer::render_frame_nested(scene, self.env, checkpoints)
-                    .into_iter()
-                    .map(|o| RenderedFrame {
-                        image: compose_eyes(o.eyes),
-                        nonfinite_samples: o.nonfinite_samples,
-                        camera_samples: o.camera_samples,
-                        gpu_seconds: None,
-                    })
-                    .collect(),
-            )),
-        }
+        crate::methods::submit(self, method, scene, checkpoints)
     }
 }

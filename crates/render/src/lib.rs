@@ -5,25 +5,20 @@
 //! `accum` is the accumulation buffer; `analytic` the analytic motion blur rasterizer
 //! (Gribel et al. 2010); `gbuffer` the G-buffer (radiance at the shutter's
 //! centre, depth, analytic velocity) that the post-process motion blur `filters` read;
-//! `io` turns linear radiance into PNG/EXR files; `set` renders whole stimulus sets with
-//! manifests and resume; `shard` cuts a set into units for N shards (Slurm job arrays) and
-//! merges the shards back into one verified set; `numeric` holds the robust numerics every
-//! method shares.
+//! `io` turns linear radiance into PNG/EXR files; `numeric` holds the robust numerics every
+//! method shares. Whole sets (folders, manifests, resume, shards) are the `sets` crate's.
 
 pub mod accum;
 pub mod analytic;
-pub mod cost;
 pub mod device;
 pub mod env;
-pub mod filter_timing;
 pub mod filters;
 pub mod gbuffer;
 pub mod io;
+pub mod measure;
 pub mod method;
+pub mod methods;
 pub mod numeric;
-pub mod quality;
-pub mod set;
-pub mod shard;
 pub mod tracer;
 
 pub use device::{DeviceChoice, Renderer};

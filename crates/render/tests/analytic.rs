@@ -12,8 +12,9 @@ use render::analytic::frame::{Binned, RasterStats, rasterize_sample, sample_cove
 use render::analytic::geometry::{CameraFrame, MovingTriangle, SurfaceKind, scene_triangles};
 use render::analytic::interval::{Insertion, Interval, compress, insert_opaque, merge, oracle};
 use render::analytic::resolve::{resolve_opaque, resolve_translucent};
-use render::analytic::{AnalyticParams, accuracy, render_frame};
+use render::analytic::{AnalyticParams, render_frame};
 use render::env::EnvironmentMap;
+use render::measure::analytic_accuracy as accuracy;
 use study::Method;
 use study::method::MethodSpec;
 
@@ -624,16 +625,15 @@ fn the_tessellated_sphere_converges_to_the_true_spheres_coverage() {
 fn the_renderer_dispatches_analytic_and_refuses_bad_settings() {
     let s = study_scene(32, 18, 1);
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
-    assert!(render::method::is_available(Method::Analytic));
     let frame = render::Renderer::cpu(&env).render(&MethodSpec::of(Method::Analytic), &s).unwrap();
     assert_eq!((frame.image.width, frame.image.height), (32, 18));
     assert!(frame.camera_samples > 0);
-    let bad = MethodSpec { intervals: Some(3), ..MethodSpec::of(Method::Analytic) };
+    let bad = MethodSpec::Analytic(study::method::AnalyticSettings { intervals: Some(3), ..Default::default() });
     let e = render::Renderer::cpu(&env).render(&bad, &s).unwrap_err().to_string();
     assert!(e.contains("intervals must lie in 4..=64, found 3"), "{e}");
-    let bad = MethodSpec { tessellation: Some(2), ..MethodSpec::of(Method::Analytic) };
+    let bad = MethodSpec::Analytic(study::method::AnalyticSettings { tessellation: Some(2), ..Default::default() });
     assert!(render::Renderer::cpu(&env).render(&bad, &s).is_err());
-    let bad = MethodSpec { supersampling: Some(0), ..MethodSpec::of(Method::Analytic) };
+    let bad = MethodSpec::Analytic(study::method::AnalyticSettings { supersampling: Some(0), ..Default::default() });
     let e = render::Renderer::cpu(&env).render(&bad, &s).unwrap_err().to_string();
     assert!(e.contains("supersampling must lie in 1..=8, found 0"), "{e}");
     // The scene's triangles: the tessellated sphere (64 x 32 segments) and the floor.
@@ -686,8 +686,8 @@ fn the_benchmark_reports_time_intervals_and_machine() {
         &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
     )
     .unwrap();
-    let opts = render::analytic::bench::BenchOptions { width: 64, height: 36, rounds: 1, ..Default::default() };
-    let r = render::analytic::bench::run(&design, &opts).unwrap();
+    let opts = render::measure::analytic::BenchOptions { width: 64, height: 36, rounds: 1, ..Default::default() };
+    let r = render::measure::analytic::run(&design, &opts).unwrap();
     assert_eq!((r["width"].as_u64(), r["intervals_budget"].as_u64()), (Some(64), Some(8)));
     assert!(r["ms_per_frame"]["mean"].as_f64().unwrap() > 0.0);
     let mean = r["intervals_per_pixel"]["mean"].as_f64().unwrap();
@@ -773,7 +773,7 @@ fn the_contact_shadows_error_is_the_methods_measured_limit_and_grows_with_speed(
     let measure = |speed: f64| {
         let mut d = design.clone();
         d.spec.factors.speed[2].degrees_per_second = speed;
-        let mut s = render::tracer::bench::benchmark_frame(&d, 32, false).unwrap();
+        let mut s = render::measure::tracer::benchmark_frame(&d, 32, false).unwrap();
         for v in &mut s.views {
             (v.camera.width, v.camera.height) = (96, 54);
         }

@@ -1,12 +1,12 @@
-//! The cost sweep (`render::cost`) on the study's scene shrunk to 64 x 36 pixels (a `tiny`
+//! The cost sweep (`render::measure::cost`) on the study's scene shrunk to 64 x 36 pixels (a `tiny`
 //! preset added to the shipped design): the tracer's error falls as 1/sqrt(spp), each
 //! method's finest setting approaches the reference or its bias floor, a stopped sweep
 //! resumes to the same table, and bad requests are clear errors. CPU only.
 
 use std::path::{Path, PathBuf};
 
-use render::cost::{CostError, CostRequest, run_cost};
 use render::env::EnvironmentMap;
+use render::measure::cost::{CostError, CostRequest, run_cost};
 use render::{DeviceChoice, Renderer};
 use study::Method;
 use study::cost::CostSweep;
@@ -117,14 +117,14 @@ fn the_tracer_error_falls_as_one_over_sqrt_spp_and_every_finest_setting_approach
     // at the same input samples and above 0.5x of it.
     for m in [Method::Mcguire, Method::Guertin] {
         let top: Vec<_> = rows.iter().filter(|r| r.method == m && r.input_spp == 16).collect();
-        assert_eq!(top.len(), render::cost::FILTER_TAPS.len());
+        assert_eq!(top.len(), study::method::SWEEP_TAPS.len());
         let e = top.last().unwrap().rmse.median;
         assert!(e < 2.0 * finest.rmse.median && e > 0.5 * finest.rmse.median, "{m}: {e} vs {}", finest.rmse.median);
     }
     // Analytic rasterizer: its bias floor (tessellation, one shading per interval) is what
     // the largest budget reaches; the budget past 16 intervals changes it by under 5 %.
     let analytic: Vec<_> = rows.iter().filter(|r| r.method == Method::Analytic && r.knob == "intervals").collect();
-    assert_eq!(analytic.iter().map(|r| r.value).collect::<Vec<_>>(), render::cost::ANALYTIC_INTERVALS);
+    assert_eq!(analytic.iter().map(|r| r.value).collect::<Vec<_>>(), study::method::SWEEP_INTERVALS);
     let (a16, a64) = (analytic[4].rmse.median, analytic[6].rmse.median);
     assert!((a64 - a16).abs() < 0.05 * a16, "{a16} vs {a64}");
     assert!(a64 < 5.0 * tracer[0].rmse.median);
@@ -132,7 +132,7 @@ fn the_tracer_error_falls_as_one_over_sqrt_spp_and_every_finest_setting_approach
     // point's aliasing goes, so 4 x 4 points beat one at the same budget.
     let mut ss: Vec<_> = rows.iter().filter(|r| r.method == Method::Analytic && r.knob == "supersampling").collect();
     ss.sort_by_key(|r| r.value);
-    assert_eq!(ss.iter().map(|r| r.value).collect::<Vec<_>>(), render::cost::ANALYTIC_SUPERSAMPLING);
+    assert_eq!(ss.iter().map(|r| r.value).collect::<Vec<_>>(), study::method::SWEEP_SUPERSAMPLING);
     eprintln!(
         "analytic 8 intervals: one point {}, 2x2 {}, 4x4 {}",
         analytic[2].rmse.median, ss[0].rmse.median, ss[1].rmse.median

@@ -269,7 +269,7 @@ fn check_finite(img: &LinearImage, what: &str, failures: &mut Vec<String>) {
 }
 
 fn spec_for(design: &Design, method: Method) -> MethodSpec {
-    if design.spec.method.kind == method { design.spec.method.clone() } else { MethodSpec::of(method) }
+    if design.method() == method { design.method_spec() } else { MethodSpec::of(method) }
 }
 
 #[test]

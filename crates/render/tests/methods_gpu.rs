@@ -8,9 +8,10 @@ mod common;
 use common::{L, flat, scene, study_camera, uniform};
 use glam::DVec3;
 use render::env::EnvironmentMap;
+use render::filters::{GuertinParams, McGuireParams};
 use render::gbuffer::{centre_time, gbuffers, instant_scene};
 use render::io::LinearImage;
-use render::method::{filter_seed, guertin_params, mcguire_params};
+use render::method::filter_seed;
 use render::{DeviceChoice, Renderer};
 use study::Method;
 use study::method::MethodSpec;
@@ -52,9 +53,10 @@ fn gpu_filters_over_the_gpu_gbuffer_equal_their_cpu_twins() {
     for kind in [Method::Mcguire, Method::Guertin] {
         let spec = MethodSpec::of(kind);
         let frame = renderer.render(&spec, &s).unwrap();
-        let twin = match kind {
-            Method::Mcguire => render::filters::mcguire_cpu(&g, &mcguire_params(&spec, seed)),
-            _ => render::filters::guertin_cpu(&g, &guertin_params(&spec, seed)),
+        let twin = match &spec {
+            MethodSpec::Mcguire(m) => render::filters::mcguire_cpu(&g, &McGuireParams::from_settings(m, seed)),
+            MethodSpec::Guertin(m) => render::filters::guertin_cpu(&g, &GuertinParams::from_settings(m, seed)),
+            other => panic!("not a filter: {other:?}"),
         };
         let worst = frame
             .image
@@ -76,9 +78,9 @@ fn gpu_accumulation_buffer_is_the_mean_of_the_gpu_instants() {
     let Some(renderer) = gpu_renderer("gpu_accumulation_buffer_is_the_mean_of_the_gpu_instants", &env) else {
         return;
     };
-    let spec = MethodSpec { instants: Some(4), ..MethodSpec::of(Method::Accum) };
-    let frame = renderer.render(&spec, &s).unwrap();
-    let instants: Vec<Vec<LinearImage>> = render::accum::instant_scenes(&s, &spec)
+    let settings = study::method::AccumSettings { instants: Some(4), ..Default::default() };
+    let frame = renderer.render(&MethodSpec::Accum(settings.clone()), &s).unwrap();
+    let instants: Vec<Vec<LinearImage>> = render::accum::instant_scenes(&s, &settings)
         .iter()
         .map(|i| split(&renderer.render(&MethodSpec::of(Method::Tracer), i).unwrap().image))
         .collect();
@@ -94,14 +96,14 @@ fn the_analytic_method_on_a_gpu_renderer_runs_its_kernel() {
     let Some(renderer) = gpu_renderer("the_analytic_method_on_a_gpu_renderer_runs_its_kernel", &env) else {
         return;
     };
-    let spec = MethodSpec {
+    let settings = study::method::AnalyticSettings {
         intervals: Some(8),
         tessellation: Some(16),
         lighting_samples: Some(2),
-        ..MethodSpec::of(Method::Analytic)
+        ..Default::default()
     };
-    let frame = renderer.render(&spec, &s).unwrap();
-    let params = render::analytic::AnalyticParams::from_spec(&spec).unwrap();
+    let frame = renderer.render(&MethodSpec::Analytic(settings.clone()), &s).unwrap();
+    let params = render::analytic::AnalyticParams::from_settings(&settings).unwrap();
     // The kernel's own output (its f32 twin is held to it in tests/analytic_gpu.rs), not the
     // f64 CPU rasterizer's, whose shading samples differ.
     let ctx = gpu::test_context("the_analytic_method_on_a_gpu_renderer_runs_its_kernel").unwrap();

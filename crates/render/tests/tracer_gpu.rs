@@ -31,7 +31,7 @@ fn design() -> Design {
 /// Stimulus `M{m}-S3-T{t}` of the study at the benchmark frame (the sphere near the image
 /// centre), at `spp` samples per pixel, every eye shrunk to 64 x 36 pixels.
 fn study_scene(design: &Design, material: u8, shutter: u8, view: View, spp: u32) -> FrameScene {
-    let frame = render::tracer::bench::benchmark_frame(design, 1, false).unwrap().frame;
+    let frame = render::measure::tracer::benchmark_frame(design, 1, false).unwrap().frame;
     let id = StimulusId { material, speed: 3, shutter, samples: 1, method: None, view };
     let mut s = design.frame_scene(&id, frame).unwrap();
     s.samples_per_pixel = spp;

@@ -1,5 +1,5 @@
 //! What accuracy costs in time (`blurlab cost`): the measured points of a cost sweep, as the
-//! renderer records them (`render::cost`) and the analysis reports them (`analysis::cost`),
+//! renderer records them (`render::measure::cost`) and the analysis reports them (`analysis::cost`),
 //! and the table both agree on: one row per method setting, with the median and spread of
 //! its repetitions.
 //!
@@ -12,6 +12,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::Method;
+use crate::method::CurveInput;
 use crate::stats::median;
 
 /// Format tag of `cost.json`.
@@ -163,9 +164,12 @@ pub struct CostRow {
 impl CostRow {
     /// `tracer spp=16`, `guertin taps=35 (16 spp in)`.
     pub fn label(&self) -> String {
-        match self.method {
-            Method::Tracer => format!("{} {}={}", self.method, self.knob, self.value),
-            _ => format!("{} {}={} ({} spp in)", self.method, self.knob, self.value, self.input_spp),
+        match self.method.curve_input() {
+            // The tracer's input is its knob.
+            CurveInput::Ignored => format!("{} {}={}", self.method, self.knob, self.value),
+            CurveInput::Each | CurveInput::Highest => {
+                format!("{} {}={} ({} spp in)", self.method, self.knob, self.value, self.input_spp)
+            }
         }
     }
 }

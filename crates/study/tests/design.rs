@@ -311,7 +311,8 @@ fn methods_design_adds_a_method_factor_whose_ids_name_the_method_and_share_the_t
     }
     let id: StimulusId = "M3-S3-T5-A1-guertin".parse().unwrap();
     let spec = d.method_of(&id).unwrap();
-    assert_eq!((spec.kind, spec.taps, spec.tile, spec.phi), (study::Method::Guertin, Some(35), Some(40), Some(27.0)));
+    let study::method::MethodSpec::Guertin(g) = spec else { panic!("{spec:?} is not guertin") };
+    assert_eq!((g.taps, g.tile, g.phi), (Some(35), Some(40), Some(27.0)));
     assert_eq!(d.factors(&id, &d.preset("full").unwrap()).unwrap().method.unwrap().label, "guertin");
     // The tracer level renders navarro2011's frames: the same scene and seeds.
     let navarro = shipped();

@@ -1,11 +1,11 @@
 //! `blurlab cost`: what accuracy costs in time. Sweeps every rendering method over its
-//! accuracy knob against a converged tracer reference (`render::cost`, resumable in `--out`)
+//! accuracy knob against a converged tracer reference (`render::measure::cost`, resumable in `--out`)
 //! and writes the report (`analysis::cost`): `cost.csv`, `cost.md`, log-log plots, FLIP
 //! error maps and, with `--report`, the analysis report's equivalent groups on the curves.
 
 use std::path::{Path, PathBuf};
 
-use render::cost::{CostError, CostRequest, run_cost};
+use render::measure::cost::{CostError, CostRequest, run_cost};
 use study::Method;
 
 use super::BadInput;

@@ -11,8 +11,8 @@ use analysis::experiment::{AnalysisOptions, JudgeUnit};
 use analysis::report::{build_report, write_report};
 use analysis::scaling::ScaleOptions;
 use anyhow::Context;
-use render::set::{ProgressMode, SetRequest, render_set};
 use runner::simulate::{ObserverModel, Quality, SimulateOptions, run_session_with};
+use sets::set::{ProgressMode, SetRequest, render_set};
 use study::StimulusId;
 use study::design::Design;
 use study::experiment::ExperimentDefinition;
@@ -84,7 +84,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         design: &design,
         preset,
         ids: ids.into_iter().collect(),
-        method: design.method(),
         out: args.set.clone(),
         resume: true,
         exr: false,

@@ -33,15 +33,8 @@ fn parse_method(text: &str) -> Result<Method, String> {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let Frame { id, scene, design, .. } = args.frame.resolve()?;
-    let spec = match args.method {
-        Some(m) if m == design.spec.method.kind && !design.has_method_factor() => design.spec.method.clone(),
-        Some(m) => study::method::MethodSpec::of(m),
-        None => design.method_of(&id).map_err(|e| BadInput(e.to_string()))?,
-    };
-    let method = spec.kind;
-    if !render::method::is_available(method) {
-        return Err(BadInput(format!("--method {method}: {}", render::RenderError::NotAvailable(method))).into());
-    }
+    let spec = design.method_with(&id, args.method).map_err(|e| BadInput(e.to_string()))?;
+    let method = spec.kind();
     let extension = args.out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     let exr = match extension.as_deref() {
         Some("exr") => true,

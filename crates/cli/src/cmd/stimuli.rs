@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use clap::{Subcommand, ValueEnum};
-use render::set::{ProgressMode, SetError, SetRequest, render_set};
-use render::shard::{Plan, ShardSpec, merge as merge_shards, render_shard};
+use sets::set::{ProgressMode, SetError, SetRequest, render_set};
+use sets::shard::{Plan, ShardSpec, merge as merge_shards, render_shard};
 use study::design::{Design, DesignError, Preset, Views};
 use study::ids::{Factor, StimulusId};
 use study::manifest::Sampling;
@@ -280,7 +280,6 @@ fn render(a: RenderArgs) -> anyhow::Result<()> {
         design: &design,
         preset,
         ids,
-        method: design.method(),
         out: a.out.clone(),
         resume: a.resume,
         exr: a.exr,

@@ -33,8 +33,6 @@
 //! `supersampling`, sample points per pixel along each axis ([`supersample`]; default 1, the
 //! paper's one point at the pixel's centre).
 
-pub mod accuracy;
-pub mod bench;
 pub mod edge;
 pub mod frame;
 pub mod geometry;
@@ -46,7 +44,7 @@ pub mod sphere;
 pub mod supersample;
 
 use glam::DVec3;
-use study::method::MethodSpec;
+use study::method::AnalyticSettings;
 use study::scene::FrameScene;
 
 use crate::env::EnvironmentMap;
@@ -59,16 +57,10 @@ use geometry::{CameraFrame, scene_triangles};
 use interval::SEARCH_RANGE_OPAQUE;
 use shade::Shading;
 
-/// The per-pixel interval budget when a design does not set `intervals`.
-pub const DEFAULT_INTERVALS: u32 = 8;
-/// The sphere's segments around its equator when a design does not set `tessellation`.
-pub const DEFAULT_TESSELLATION: u32 = study::method::DEFAULT_TESSELLATION;
-/// The interval budget's bounds.
-pub const INTERVALS_RANGE: std::ops::RangeInclusive<u32> = 4..=64;
+/// The settings' defaults and ranges: one home, the study model's.
+pub use study::method::{DEFAULT_INTERVALS, DEFAULT_TESSELLATION, INTERVALS_RANGE, SUPERSAMPLING_RANGE};
 /// The largest tessellation (the design's own limit, `study::method::TESSELLATION_RANGE`).
 pub const MAX_TESSELLATION: u32 = *study::method::TESSELLATION_RANGE.end();
-/// The supersampling's bounds (sample points per pixel along each axis).
-pub const SUPERSAMPLING_RANGE: std::ops::RangeInclusive<u32> = 1..=8;
 
 /// Settings a frame could not be rendered with.
 #[derive(Debug, thiserror::Error)]
@@ -132,13 +124,13 @@ impl Default for AnalyticParams {
 }
 
 impl AnalyticParams {
-    /// The settings of `spec` (defaults where unset), checked.
-    pub fn from_spec(spec: &MethodSpec) -> Result<Self, AnalyticError> {
+    /// The settings a design wrote (defaults where unset), checked.
+    pub fn from_settings(spec: &AnalyticSettings) -> Result<Self, AnalyticError> {
         let p = AnalyticParams {
-            intervals: spec.intervals.unwrap_or(DEFAULT_INTERVALS),
-            tessellation: spec.tessellation.unwrap_or(DEFAULT_TESSELLATION),
+            intervals: spec.intervals(),
+            tessellation: spec.tessellation(),
             lighting_samples: spec.lighting_samples,
-            supersampling: spec.supersampling.unwrap_or(1),
+            supersampling: spec.supersampling(),
         };
         p.check()?;
         Ok(p)

@@ -39,6 +39,7 @@ pub mod tiles;
 pub use gpu::{FilteredImage, GpuFilters};
 pub use guertin::{guertin_cpu, try_guertin_cpu};
 pub use mcguire::{mcguire_cpu, try_mcguire_cpu};
+use study::method::{GuertinSettings, McGuireSettings};
 
 /// The depth of sky pixels: nothing is behind them.
 pub const SKY_DEPTH: f32 = 1.0e6;
@@ -78,7 +79,15 @@ pub struct McGuireParams {
 
 impl Default for McGuireParams {
     fn default() -> Self {
-        McGuireParams { samples: 15, tile: 20, soft_z_extent: 0.1, seed: 0 }
+        McGuireParams::from_settings(&McGuireSettings::default(), 0)
+    }
+}
+
+impl McGuireParams {
+    /// The settings a design wrote (the paper's defaults where unset, from the study model's
+    /// [`McGuireSettings`]) with the per-pixel jitter `seed`.
+    pub fn from_settings(s: &McGuireSettings, seed: u32) -> Self {
+        McGuireParams { samples: s.taps(), tile: s.tile(), soft_z_extent: s.soft_z_extent() as f32, seed }
     }
 }
 
@@ -113,16 +122,24 @@ pub struct GuertinParams {
 
 impl Default for GuertinParams {
     fn default() -> Self {
+        GuertinParams::from_settings(&GuertinSettings::default(), 0)
+    }
+}
+
+impl GuertinParams {
+    /// The settings a design wrote (the paper's defaults where unset, from the study model's
+    /// [`GuertinSettings`]) with the jitter `seed`.
+    pub fn from_settings(s: &GuertinSettings, seed: u32) -> Self {
         GuertinParams {
-            samples: 35,
-            tile: 40,
-            tau: 1.0,
-            kappa: 40.0,
-            eta: 0.95,
-            gamma: 1.5,
-            phi: 27.0,
-            tile_variance: false,
-            seed: 0,
+            samples: s.taps(),
+            tile: s.tile(),
+            tau: s.tau() as f32,
+            kappa: s.kappa() as f32,
+            eta: s.eta() as f32,
+            gamma: s.gamma() as f32,
+            phi: s.phi() as f32,
+            tile_variance: s.tile_variance(),
+            seed,
         }
     }
 }
@@ -173,9 +190,9 @@ pub enum FilterError {
 
 /// Largest sample count and tile size accepted (a gather of 1024 taps per pixel is already
 /// far beyond either paper).
-pub const MAX_SAMPLES: u32 = 1024;
+pub const MAX_SAMPLES: u32 = *study::method::FILTER_COUNT_RANGE.end();
 /// Largest tile size accepted.
-pub const MAX_TILE: u32 = 1024;
+pub const MAX_TILE: u32 = *study::method::FILTER_COUNT_RANGE.end();
 
 /// The pixels of `g` whose colour has a NaN or infinite channel or whose depth is NaN or
 /// infinite: both filters pass each through unchanged and give it zero weight as a sample.

@@ -11,7 +11,6 @@
 //! closed shutter or no motion samples no time dimension (the sphere is placed once), and
 //! a flat material evaluates no texture.
 
-pub mod bench;
 pub mod camera;
 pub mod gpu;
 pub mod integrator;

@@ -104,14 +104,14 @@ pub fn assert_coverage_matches(s: &FrameScene, img: &render::io::LinearImage, sp
     assert!(compared >= 16, "only {compared} partially covered pixels");
 }
 
-/// The design's benchmark frame (M3-S3-T5, `render::tracer::bench::benchmark_frame`) at
+/// The design's benchmark frame (M3-S3-T5, `render::measure::tracer::benchmark_frame`) at
 /// `width` x `height` and `spp`, its field of view narrowed `zoom` times.
 pub fn study_frame(width: u32, height: u32, spp: u32, zoom: f64) -> FrameScene {
     let design = study::design::Design::load(
         &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
     )
     .unwrap();
-    let mut s = render::tracer::bench::benchmark_frame(&design, spp, false).unwrap();
+    let mut s = render::measure::tracer::benchmark_frame(&design, spp, false).unwrap();
     for view in &mut s.views {
         (view.camera.width, view.camera.height) = (width, height);
         view.camera.sensor_width /= zoom;

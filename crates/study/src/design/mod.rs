@@ -139,6 +139,9 @@ pub struct Design {
     pub spec: DesignSpec,
     /// The lighting with file paths resolved against the design's folder.
     pub lighting: Lighting,
+    /// The typed method of each method table: `[method]`, or each `[[factors.method]]`
+    /// level in file order.
+    methods: Vec<MethodSpec>,
     text: String,
 }
 
@@ -181,9 +184,11 @@ impl Design {
                 rotation_y: 0.0,
             },
             spec,
+            methods: Vec::new(),
             text: text.to_owned(),
         };
         design.validate()?;
+        design.methods = design.typed_methods()?;
         design.lighting = design.resolve_lighting()?;
         Ok(design)
     }
@@ -192,6 +197,12 @@ impl Design {
     /// otherwise); in a design with a method factor, each id's own ([`Design::method_of`]).
     pub fn method(&self) -> crate::Method {
         self.spec.method.kind
+    }
+
+    /// The design's `[method]` with its settings (the tracer's defaults when absent; in a
+    /// design with a method factor, each id's own is [`Design::method_of`]).
+    pub fn method_spec(&self) -> MethodSpec {
+        if self.has_method_factor() { MethodSpec::of(self.method()) } else { self.methods[0].clone() }
     }
 
     /// Whether the design has a rendering-method factor (`[[factors.method]]`).
@@ -211,16 +222,25 @@ impl Design {
             .collect()
     }
 
+    /// The method and settings that render `id` when a command line asks for `method`: the
+    /// design's own ([`Design::method_of`]) where it names none or the design's `[method]`,
+    /// else that method at its defaults.
+    pub fn method_with(&self, id: &StimulusId, method: Option<crate::Method>) -> Result<MethodSpec, DesignError> {
+        match method {
+            Some(m) if m == self.method() && !self.has_method_factor() => Ok(self.method_spec()),
+            Some(m) => Ok(MethodSpec::of(m)),
+            None => self.method_of(id),
+        }
+    }
+
     /// The method and settings that render `id`: its method level's, or the design's `[method]`.
     pub fn method_of(&self, id: &StimulusId) -> Result<MethodSpec, DesignError> {
         self.check_id(id)?;
-        Ok(match id.method {
-            Some(tag) => {
-                let i = self.method_tags().iter().position(|t| *t == tag).unwrap_or(0);
-                self.spec.factors.method[i].clone()
-            }
-            None => self.spec.method.clone(),
-        })
+        let level = match id.method {
+            Some(tag) => self.method_tags().iter().position(|t| *t == tag).unwrap_or(0),
+            None => 0,
+        };
+        Ok(self.methods[level].clone())
     }
 
     /// The design's name.
@@ -378,11 +398,15 @@ impl Design {
             shutter: info(Factor::Shutter, &f.shutter[t].name, f.shutter[t].fraction),
             samples: info(Factor::Samples, &f.samples[a].name, f64::from(preset.samples_per_pixel[a])),
             method: match id.method {
-                Some(tag) => Some(LevelInfo {
-                    label: tag.to_string(),
-                    name: self.method_of(id)?.name.unwrap_or_else(|| tag.to_string()),
-                    value: f64::from(tag.code()),
-                }),
+                Some(tag) => {
+                    self.check_id(id)?;
+                    let level = self.method_tags().iter().position(|t| *t == tag).unwrap_or(0);
+                    Some(LevelInfo {
+                        label: tag.to_string(),
+                        name: f.method[level].name.clone().unwrap_or_else(|| tag.to_string()),
+                        value: f64::from(tag.code()),
+                    })
+                }
                 None => None,
             },
         })

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 
 use serde::Deserialize;
 
-use crate::method::MethodSpec;
+use crate::method::MethodTable;
 use crate::scene::{StereoConvergence, ToneMap};
 
 /// How each frame's shutter interval is placed relative to the frame time.
@@ -249,7 +249,7 @@ pub struct FactorsSpec {
     /// Rendering-method levels (optional): with them every id names its method level
     /// (`M3-S3-T5-A1-guertin`) and `[method]` must be absent.
     #[serde(default)]
-    pub method: Vec<MethodSpec>,
+    pub method: Vec<MethodTable>,
 }
 
 /// One `[presets.NAME]` table: overrides of the full design for smaller renders.
@@ -298,7 +298,7 @@ pub struct DesignSpec {
     pub factors: FactorsSpec,
     /// The set's rendering method (`[method] kind = "tracer"` when absent).
     #[serde(default)]
-    pub method: MethodSpec,
+    pub method: MethodTable,
     /// Named presets (`full` applies none of its overrides unless given).
     #[serde(default)]
     pub presets: BTreeMap<String, PresetSpec>,

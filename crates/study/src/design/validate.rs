@@ -7,9 +7,7 @@ use std::path::Path;
 
 use super::{Design, DesignError, EnvironmentKind, MaterialKind, MaterialLevel};
 use crate::ids::MethodTag;
-use crate::method::{
-    DEFAULT_INSTANTS, DEFAULT_TESSELLATION, Method, MethodSpec, TESSELLATION_RANGE, sphere_triangle_count,
-};
+use crate::method::{MethodSpec, MethodTable, num};
 use crate::scene::{DEFAULT_MAP_PEAK_RADIANCE, Environment, Lighting, MAX_RADIANCE, Material};
 
 /// The frame rates a design may set (frames per second).
@@ -35,12 +33,6 @@ pub const MAX_FRAME_SAMPLES: u64 = 1 << 36;
 /// The most triangle-pixel pairs one frame of the analytic method (both eyes, every sample
 /// point) may need: about `tessellation^2` triangles times the sample points.
 pub const MAX_FRAME_TRIANGLE_PIXELS: u64 = 1 << 36;
-
-/// A number for a message: plain where short, in scientific notation where plain would
-/// print hundreds of digits (1e300, 1e-300).
-fn num(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() || (1e-4..1e7).contains(&v.abs()) { format!("{v}") } else { format!("{v:e}") }
-}
 
 impl Design {
     /// Two levels of one factor with the same name or the same value are ambiguous: the error
@@ -322,7 +314,7 @@ impl Design {
     }
 
     /// The method tables of the design: `[method]`, or each `[[factors.method]]` level.
-    fn method_tables(&self) -> Vec<(&'static str, Option<usize>, &MethodSpec)> {
+    fn method_tables(&self) -> Vec<(&'static str, Option<usize>, &MethodTable)> {
         let s = &self.spec;
         if s.factors.method.is_empty() {
             vec![("method", None, &s.method)]
@@ -331,30 +323,26 @@ impl Design {
         }
     }
 
+    /// The typed method of each method table ([`Design::method_tables`]' order): a key that
+    /// does not apply to the table's method, or a setting out of range, is refused with the
+    /// file, line and key.
+    pub(super) fn typed_methods(&self) -> Result<Vec<MethodSpec>, DesignError> {
+        self.method_tables()
+            .into_iter()
+            .map(|(table, index, m)| {
+                MethodSpec::from_table(m).map_err(|e| self.invalid(table, index, e.key, e.message))
+            })
+            .collect()
+    }
+
     /// What one frame of each method costs, in every preset at every A level, within
-    /// [`MAX_FRAME_SAMPLES`] light paths and (the analytic method) [`MAX_FRAME_TRIANGLE_PIXELS`]
-    /// triangle-pixel pairs, counting both eyes of a stereo frame; the accumulation buffer's
-    /// samples per pixel within [`MAX_SAMPLES`], the tracer's limit. The error names the
+    /// [`MAX_FRAME_SAMPLES`] light paths and (rasterizers) [`MAX_FRAME_TRIANGLE_PIXELS`]
+    /// triangle-pixel pairs, counting both eyes of a stereo frame. The error names the
     /// method's setting that drives the cost where one is written, else the samples or the
     /// image size.
     fn frame_work(&self) -> Result<(), DesignError> {
         let s = &self.spec;
-        for (table, index, m) in self.method_tables() {
-            if let Some(spi) = m.samples_per_instant {
-                let k = m.instants.unwrap_or(DEFAULT_INSTANTS);
-                let per_pixel = u64::from(k) * u64::from(spi);
-                if per_pixel > u64::from(MAX_SAMPLES) {
-                    return Err(self.invalid(
-                        table,
-                        index,
-                        "samples_per_instant",
-                        format!(
-                            "{k} instants x {spi} samples per instant is {per_pixel} samples per pixel, above the limit of {MAX_SAMPLES}"
-                        ),
-                    ));
-                }
-            }
-        }
+        let methods = self.typed_methods()?;
         for name in self.preset_names() {
             let preset = self.preset(&name)?;
             let written = s.presets.get(&name);
@@ -372,27 +360,8 @@ impl Design {
                 } else {
                     ("factors.samples".to_owned(), Some(a))
                 };
-                for (table, index, m) in self.method_tables() {
-                    let setting = |key: &'static str, set: bool| set.then_some(key);
-                    let (per_pixel, key, how) = match m.kind {
-                        Method::Tracer | Method::Mcguire | Method::Guertin => {
-                            (u64::from(spp), None, format!("{spp} samples per pixel"))
-                        }
-                        Method::Accum => {
-                            let k = m.instants.unwrap_or(DEFAULT_INSTANTS).max(1);
-                            let spi = m.samples_per_instant.unwrap_or(spp.div_ceil(k)).max(1);
-                            let key = setting("samples_per_instant", m.samples_per_instant.is_some())
-                                .or(setting("instants", m.instants.is_some()));
-                            (u64::from(k) * u64::from(spi), key, format!("{k} instants x {spi} samples per instant"))
-                        }
-                        Method::Analytic => {
-                            let n = u64::from(m.supersampling.unwrap_or(1));
-                            let l = m.lighting_samples.unwrap_or(spp).max(1);
-                            let key = setting("lighting_samples", m.lighting_samples.is_some())
-                                .or(setting("supersampling", m.supersampling.is_some()));
-                            (n * n * u64::from(l), key, format!("{} sample points x {l} lighting samples", n * n))
-                        }
-                    };
+                for ((table, index, _), m) in self.method_tables().into_iter().zip(&methods) {
+                    let work = m.frame_work(spp);
                     // The key named: the method's setting that drives the cost where one is
                     // written, else the A level's samples (light paths) or the image size.
                     let limit = |total: u64, max: u64, unit: &str, how: &str, key: Option<&str>, by_samples: bool| {
@@ -401,7 +370,7 @@ impl Design {
                         }
                         let message = format!(
                             "the `{}` method at {what}, A{}: {how} x {pixels} pixels is {} {unit} per frame, above the limit of {} (2^{})",
-                            m.kind,
+                            m.kind(),
                             a + 1,
                             num(total as f64),
                             num(max as f64),
@@ -415,15 +384,11 @@ impl Design {
                             None => self.invalid(&size_table, None, "height", message),
                         })
                     };
-                    limit(per_pixel.saturating_mul(pixels), MAX_FRAME_SAMPLES, "light paths", &how, key, true)?;
-                    if m.kind == Method::Analytic {
-                        let n = u64::from(m.supersampling.unwrap_or(1));
-                        let triangles = sphere_triangle_count(m.tessellation.unwrap_or(DEFAULT_TESSELLATION));
-                        let key = setting("tessellation", m.tessellation.is_some())
-                            .or(setting("supersampling", m.supersampling.is_some()));
-                        let how = format!("{triangles} triangles x {} sample points per pixel", n * n);
-                        let pairs = triangles * n * n * pixels;
-                        limit(pairs, MAX_FRAME_TRIANGLE_PIXELS, "triangle-pixel pairs", &how, key, false)?;
+                    let paths = work.light_paths.saturating_mul(pixels);
+                    limit(paths, MAX_FRAME_SAMPLES, "light paths", &work.light_paths_how, work.light_paths_key, true)?;
+                    if let Some((per_pixel, key, how)) = &work.triangle_pairs {
+                        let pairs = per_pixel.saturating_mul(pixels);
+                        limit(pairs, MAX_FRAME_TRIANGLE_PIXELS, "triangle-pixel pairs", how, *key, false)?;
                     }
                 }
             }
@@ -436,7 +401,7 @@ impl Design {
     fn validate_methods(&self) -> Result<(), DesignError> {
         let s = &self.spec;
         let levels = &s.factors.method;
-        if !levels.is_empty() && s.method != MethodSpec::default() {
+        if !levels.is_empty() && s.method != MethodTable::default() {
             return Err(self.invalid(
                 "",
                 None,
@@ -444,60 +409,7 @@ impl Design {
                 "a design with `[[factors.method]]` levels names each level's method there; remove `[method]`",
             ));
         }
-        for (table, index, m) in self.method_tables() {
-            for (key, applies) in m.settings() {
-                if !applies.contains(&m.kind) {
-                    let names: Vec<&str> = applies.iter().map(|k| k.name()).collect();
-                    return Err(self.invalid(
-                        table,
-                        index,
-                        key,
-                        format!("applies to {} only, not to `{}`", names.join(" and "), m.kind),
-                    ));
-                }
-            }
-            let count = |key: &str, v: Option<u32>, max: u32| match v {
-                Some(v) if v == 0 || v > max => {
-                    Err(self.invalid(table, index, key, format!("must lie in 1..={max}, found {v}")))
-                }
-                _ => Ok(()),
-            };
-            count("instants", m.instants, 4096)?;
-            count("samples_per_instant", m.samples_per_instant, 1 << 20)?;
-            count("taps", m.taps, 1024)?;
-            count("tile", m.tile, 256)?;
-            if let Some(v) = m.tessellation
-                && !TESSELLATION_RANGE.contains(&v)
-            {
-                return Err(self.invalid(
-                    table,
-                    index,
-                    "tessellation",
-                    format!("must lie in {}..={}, found {v}", TESSELLATION_RANGE.start(), TESSELLATION_RANGE.end()),
-                ));
-            }
-            count("lighting_samples", m.lighting_samples, 1 << 16)?;
-            count("supersampling", m.supersampling, 8)?;
-            if let Some(v) = m.intervals
-                && !(4..=64).contains(&v)
-            {
-                return Err(self.invalid(table, index, "intervals", format!("must lie in 4..=64, found {v}")));
-            }
-            let real = |key: &str, v: Option<f64>, lo: f64, hi: f64| match v {
-                Some(v) if !(v.is_finite() && v >= lo && v <= hi) => {
-                    Err(self.invalid(table, index, key, format!("must lie in [{lo}, {hi}], found {}", num(v))))
-                }
-                _ => Ok(()),
-            };
-            real("soft_z_extent", m.soft_z_extent, 1e-6, 1e3)?;
-            real("tau", m.tau, 0.0, 1e3)?;
-            real("kappa", m.kappa, 1e-3, 1e6)?;
-            real("eta", m.eta, 0.0, 1.0)?;
-            // The filter divides by gamma in f32: zero, or a value that rounds to zero there,
-            // cannot render.
-            real("gamma", m.gamma, 1e-3, 100.0)?;
-            real("phi", m.phi, 0.0, 1e3)?;
-        }
+        self.typed_methods()?;
         for kind in crate::Method::ALL {
             let n = levels.iter().filter(|m| m.kind == kind).count();
             if n > usize::from(MethodTag::MAX_VARIANTS) {

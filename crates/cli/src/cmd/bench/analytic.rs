@@ -1,9 +1,9 @@
 //! `blurlab bench analytic [--json]`: milliseconds per frame of the analytic motion blur
-//! rasterizer (`render::analytic::bench`) on the design's M3-S3-T5 benchmark frame, with the
+//! rasterizer (`render::measure::analytic`) on the design's M3-S3-T5 benchmark frame, with the
 //! average and largest number of intervals per pixel and the machine.
 
 use render::analytic::AnalyticParams;
-use render::analytic::bench::{BenchOptions, run as run_bench};
+use render::measure::analytic::{BenchOptions, run as run_bench};
 
 use crate::cmd::BadInput;
 use crate::cmd::stimuli::load_design;

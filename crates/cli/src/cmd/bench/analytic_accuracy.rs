@@ -1,5 +1,5 @@
 //! `blurlab bench analytic-accuracy`: the analytic rasterizer's approximations on the
-//! design's M3-S3-T5 benchmark frame (`render::analytic::accuracy`): the linear depth's error
+//! design's M3-S3-T5 benchmark frame (`render::measure::analytic_accuracy`): the linear depth's error
 //! histogram (the paper's Figure 10) and the tessellated sphere's coverage error against the
 //! true sphere per tessellation, and the contact shadow against the tracer per speed (the
 //! method's measured limit: one shading per interval leaves the moving shadow sharp). Prints
@@ -10,8 +10,10 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use analysis::rasterizer::{DepthErrorFigure, TessellationFigure, TessellationPoint, write_figures};
-use render::analytic::accuracy::{ShadowError, contact_shadow_error, depth_error_histogram, tessellation_error};
 use render::analytic::geometry::VertexPaths;
+use render::measure::analytic_accuracy::{
+    ShadowError, contact_shadow_error, depth_error_histogram, tessellation_error,
+};
 use serde_json::json;
 
 use crate::cmd::BadInput;
@@ -61,8 +63,8 @@ fn contact_shadows(design: &study::design::Design, args: &Args) -> anyhow::Resul
         let level =
             d.spec.factors.speed.get_mut(2).ok_or_else(|| BadInput("the design has no third speed level".into()))?;
         level.degrees_per_second = speed;
-        let mut scene =
-            render::tracer::bench::benchmark_frame(&d, args.shadow_spp, false).map_err(|e| BadInput(e.to_string()))?;
+        let mut scene = render::measure::tracer::benchmark_frame(&d, args.shadow_spp, false)
+            .map_err(|e| BadInput(e.to_string()))?;
         let aspect = f64::from(scene.views[0].camera.height) / f64::from(scene.views[0].camera.width);
         let height = ((f64::from(args.shadow_width) * aspect).round() as u32).max(1);
         for view in &mut scene.views {
@@ -71,7 +73,7 @@ fn contact_shadows(design: &study::design::Design, args: &Args) -> anyhow::Resul
         let env = render::env::EnvironmentMap::from_lighting(&scene.lighting).map_err(|e| BadInput(e.to_string()))?;
         render::analytic::check_motion(&scene).map_err(|e| BadInput(format!("--shadow-speeds {speed}: {e}")))?;
         let traced = render::tracer::render_frame(&scene, &env);
-        let raster = render::analytic::render_frame(&scene, &env, &render::analytic::accuracy::SHADOW_PARAMS)?;
+        let raster = render::analytic::render_frame(&scene, &env, &render::measure::analytic_accuracy::SHADOW_PARAMS)?;
         out.push(contact_shadow_error(&scene, speed, &traced.eyes[0], &raster.eyes[0]));
     }
     Ok(out)
@@ -84,7 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Err(BadInput(format!("--tessellation(s): {bad} is outside 3..={max}")).into());
     }
     let design = load_design(&args.frame.design)?;
-    let mut scene = render::tracer::bench::benchmark_frame(&design, 1, false).map_err(|e| BadInput(e.to_string()))?;
+    let mut scene = render::measure::tracer::benchmark_frame(&design, 1, false).map_err(|e| BadInput(e.to_string()))?;
     for view in &mut scene.views {
         (view.camera.width, view.camera.height) = (args.size.width, args.size.height);
     }

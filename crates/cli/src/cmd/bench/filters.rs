@@ -1,8 +1,8 @@
 //! `blurlab bench filters [--json] [--device gpu|cpu|auto]`: milliseconds per frame of the
-//! McGuire 2012 and Guertin 2014 filters at 1280x720 and N = 35 (`render::filter_timing`):
+//! McGuire 2012 and Guertin 2014 filters at 1280x720 and N = 35 (`render::measure::filters`):
 //! GPU time from timestamp queries, the CPU twins beside it in the same run.
 
-use render::filter_timing::{FilterTimingOptions, benchmark_gbuffer, run_filter_timing};
+use render::measure::filters::{FilterTimingOptions, benchmark_gbuffer, run_filter_timing};
 
 use crate::cmd::BadInput;
 use crate::cmd::stimuli::{DeviceArg, load_design};

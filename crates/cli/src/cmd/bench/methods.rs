@@ -1,11 +1,11 @@
 //! `blurlab bench methods [--json]`: each rendering method's error against a high-sample
 //! tracer reference, and its render time, for every material, speed and shutter of a design
-//! with a method factor (`render::quality`); the accumulation buffer's cost against the
+//! with a method factor (`render::measure::methods`); the accumulation buffer's cost against the
 //! tracer's at equal error. Without `--json` it prints a Markdown table.
 
 use std::path::PathBuf;
 
-use render::quality::{QualityOptions, markdown_table, run_quality};
+use render::measure::methods::{QualityOptions, markdown_table, run_quality};
 
 use crate::cmd::BadInput;
 use crate::cmd::stimuli::{DeviceArg, design_error, load_design};
@@ -60,7 +60,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bar.set_position(done as u64);
     })
     .map_err(|e| match e {
-        render::quality::QualityError::Request(_) | render::quality::QualityError::Design(_) => {
+        render::measure::methods::QualityError::Request(_) | render::measure::methods::QualityError::Design(_) => {
             anyhow::Error::new(BadInput(e.to_string()))
         }
         e => anyhow::Error::new(e),

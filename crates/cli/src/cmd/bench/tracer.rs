@@ -1,17 +1,17 @@
 //! `blurlab bench tracer [--json] [--device cpu|gpu|auto]`: with `--device gpu`, the GPU
-//! tracer's benchmark (`render::tracer::gpu::bench`: camera samples per second from GPU
+//! tracer's benchmark (`render::measure::tracer_gpu`: camera samples per second from GPU
 //! timestamps, the CPU tracer beside it, what each kernel specialisation saves). With the
 //! default `--device cpu`: camera samples per second of the CPU tracer on the
 //! full-resolution M3-S3-T5 frame, and, side by side in the same run, Mitsuba 3
 //! (`scalar_rgb`, `path` integrator of the same depth) on the same static frame at the same
 //! samples per pixel, with the noise of both at that sample count
-//! (`render::tracer::bench::run_benchmark`). The peer runs as `python3
+//! (`render::measure::tracer::run_benchmark`). The peer runs as `python3
 //! bench/mitsuba_peer.py DIR`.
 
 use std::path::PathBuf;
 
-use render::tracer::bench::{BenchOptions, run_benchmark};
-use render::tracer::gpu::bench::{GpuBenchOptions, run_gpu_benchmark};
+use render::measure::tracer::{BenchOptions, run_benchmark};
+use render::measure::tracer_gpu::{GpuBenchOptions, run_gpu_benchmark};
 
 use crate::cmd::BadInput;
 use crate::cmd::stimuli::DeviceArg;

@@ -10,7 +10,6 @@
 //! - [`bench`]: `blurlab bench tracer --device gpu`.
 //! - [`assembler`]: the WGSL assembler that knows the render crate's shader includes.
 
-pub mod bench;
 pub mod cpu;
 pub mod device;
 pub mod params;

@@ -1,5 +1,5 @@
 //! The rasterizer's benchmark: milliseconds per frame of the study scene's benchmark frame
-//! (M3-S3-T5, the sphere nearest the image centre, `crate::tracer::bench::benchmark_frame`)
+//! (M3-S3-T5, the sphere nearest the image centre, `crate::measure::tracer::benchmark_frame`)
 //! at a given size and interval budget, with the average and largest number of intervals
 //! offered per pixel (the paper reports 16 s per frame single-threaded, and 7.2 and 177
 //! intervals for its bunny scene), and the machine. `blurlab bench analytic` prints it.
@@ -12,7 +12,7 @@ use std::time::Instant;
 use serde_json::{Value, json};
 use study::design::Design;
 
-use super::{AnalyticParams, render_frame};
+use crate::analytic::{AnalyticParams, render_frame};
 use crate::env::EnvironmentMap;
 
 /// What to measure.
@@ -40,7 +40,7 @@ impl Default for BenchOptions {
 
 /// Renders the benchmark frame of `design` `opts.rounds` times and reports the timings.
 pub fn run(design: &Design, opts: &BenchOptions) -> Result<Value, String> {
-    let mut scene = crate::tracer::bench::benchmark_frame(design, opts.spp, false).map_err(|e| e.to_string())?;
+    let mut scene = crate::measure::tracer::benchmark_frame(design, opts.spp, false).map_err(|e| e.to_string())?;
     for view in &mut scene.views {
         (view.camera.width, view.camera.height) = (opts.width, opts.height);
     }
@@ -76,7 +76,7 @@ pub fn run(design: &Design, opts: &BenchOptions) -> Result<Value, String> {
         "paper_ms_per_frame_single_threaded": 16000.0,
         "target_ms_per_frame": 500.0,
         "gpu": gpu,
-        "machine": crate::tracer::bench::machine_json(),
+        "machine": crate::measure::tracer::machine_json(),
     }))
 }
 
@@ -100,7 +100,7 @@ fn run_gpu(
     let software = ctx.info.is_software;
     let tracer = crate::tracer::gpu::GpuTracer::new(ctx.clone()).map_err(|e| e.to_string())?;
     let genv = tracer.environment(env).map_err(|e| e.to_string())?;
-    let kernel = super::gpu::GpuAnalytic::new(ctx).map_err(|e| e.to_string())?;
+    let kernel = crate::analytic::gpu::GpuAnalytic::new(ctx).map_err(|e| e.to_string())?;
     let warm = kernel.render_frame(scene, &genv, &opts.params).map_err(|e| e.to_string())?;
     let (mut wall, mut stamps) = (Vec::new(), Vec::new());
     for _ in 0..opts.rounds.max(1) {

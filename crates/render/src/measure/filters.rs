@@ -10,11 +10,12 @@ use std::time::Instant;
 
 use serde_json::{Value, json};
 use study::design::Design;
-use study::method::MethodSpec;
+use study::method::{GuertinSettings, McGuireSettings};
 
 use crate::filters::{GBuffer, GpuFilters, guertin_cpu, mcguire_cpu};
+use crate::filters::{GuertinParams, McGuireParams};
 use crate::gbuffer::{centre_time, gbuffers, instant_scene};
-use crate::method::{filter_seed, guertin_params, mcguire_params};
+use crate::method::filter_seed;
 
 /// What to measure.
 #[derive(Clone, Debug)]
@@ -48,7 +49,7 @@ pub enum FilterTimingError {
 /// The benchmark frame's G-buffer at `width` x `height` (radiance traced at 1 sample per pixel
 /// on the CPU: its noise does not change a filter's cost).
 pub fn benchmark_gbuffer(design: &Design, width: u32, height: u32) -> Result<GBuffer, FilterTimingError> {
-    let mut scene = crate::tracer::bench::benchmark_frame(design, 1, false)?;
+    let mut scene = crate::measure::tracer::benchmark_frame(design, 1, false)?;
     for view in &mut scene.views {
         let camera = &mut view.camera;
         (camera.width, camera.height) = (width, height);
@@ -70,14 +71,12 @@ pub fn run_filter_timing(
     filters: Option<&GpuFilters>,
     opts: &FilterTimingOptions,
 ) -> Result<Value, FilterTimingError> {
-    let mut spec = MethodSpec { taps: Some(opts.taps), ..MethodSpec::default() };
     let seed = filter_seed(0x5EED);
     let max_speed = g.velocity.iter().map(|v| v[0].hypot(v[1])).fold(0.0f32, f32::max);
     let mut results = serde_json::Map::new();
     for name in ["mcguire", "guertin"] {
-        spec.kind = name.parse().unwrap_or_default();
-        let m = mcguire_params(&spec, seed);
-        let gp = guertin_params(&spec, seed);
+        let m = McGuireParams::from_settings(&McGuireSettings { taps: Some(opts.taps), ..Default::default() }, seed);
+        let gp = GuertinParams::from_settings(&GuertinSettings { taps: Some(opts.taps), ..Default::default() }, seed);
         let run_cpu = || if name == "mcguire" { mcguire_cpu(g, &m) } else { guertin_cpu(g, &gp) };
         let mut cpu = Vec::new();
         for _ in 0..opts.cpu_rounds.max(1) {
@@ -118,7 +117,7 @@ pub fn run_filter_timing(
             let i = f.info();
             json!({"name": i.name, "backend": format!("{:?}", i.backend), "driver": i.driver, "software": i.is_software})
         }),
-        "machine": crate::tracer::bench::machine_json(),
+        "machine": crate::measure::tracer::machine_json(),
         "paper": {"guertin_2014_gtx780_ms": 1.68, "target_h200_ms": 0.25},
         "filters": results,
     }))

@@ -1,5 +1,5 @@
 //! The GPU tracer's benchmark (`blurlab bench tracer --device gpu`): camera samples per
-//! second on the benchmark frame ([`crate::tracer::bench::benchmark_frame`], full
+//! second on the benchmark frame ([`crate::measure::tracer::benchmark_frame`], full
 //! resolution), GPU time from timestamp queries where the adapter has them, the CPU tracer
 //! on the same frame in the same run (on a software adapter the ratio is the only number that
 //! means anything), what each kernel specialisation saves, and the full set projected.
@@ -11,10 +11,10 @@ use study::design::Design;
 use study::ids::{StimulusId, View};
 use study::scene::FrameScene;
 
-use super::params::Specialisation;
-use super::{GpuEnvironment, GpuTracer};
 use crate::env::EnvironmentMap;
-use crate::tracer::bench::{BENCH_STIMULUS, BenchError, benchmark_frame, frame_json, full_set_camera_samples};
+use crate::measure::tracer::{BENCH_STIMULUS, BenchError, benchmark_frame, frame_json, full_set_camera_samples};
+use crate::tracer::gpu::params::Specialisation;
+use crate::tracer::gpu::{GpuEnvironment, GpuTracer};
 
 /// Options of [`run_gpu_benchmark`].
 #[derive(Clone, Debug)]
@@ -43,7 +43,7 @@ fn best_of(
     spec: Specialisation,
     rounds: u32,
 ) -> Result<Best, BenchError> {
-    let gpu = |e: super::GpuTracerError| BenchError::Gpu(e.to_string());
+    let gpu = |e: crate::tracer::gpu::GpuTracerError| BenchError::Gpu(e.to_string());
     // Compiles the pipeline and warms the caches, untimed.
     let mut warm = scene.clone();
     warm.samples_per_pixel = 1;

@@ -9,7 +9,7 @@
 //!   error it judges: before rendering, when it has fewer than a hundred times the finest
 //!   tracer's samples; then measured, on each method's finest setting before the rest is
 //!   swept, and on the whole table at the end.
-//! - Knobs ([`sweep_settings`]): tracer samples per pixel (powers of two up to `max_spp`
+//! - Knobs (`study::Method::sweep`, each method's own): tracer samples per pixel (powers of two up to `max_spp`
 //!   and the preset's sampling levels); accumulation-buffer instants (centred, 4 samples per
 //!   instant, up to `max_spp` samples in all); McGuire's and Guertin's taps at each of the
 //!   preset's sampling levels as their G-buffer input; the analytic rasterizer's interval
@@ -33,24 +33,14 @@ use study::Method;
 use study::cost::{COST_FORMAT, CostPoint, CostReference, CostSweep, point_key};
 use study::design::{Design, Preset};
 use study::ids::{Factor, MethodTag, StimulusId, View};
-use study::method::MethodSpec;
+use study::method::{MethodSpec, SweepSetting as Setting};
 use study::scene::FrameScene;
 use study::seed::mix;
 
 use crate::io::{LinearImage, decode_exr, encode_exr, encode_png_srgb, to_srgb8};
-use crate::quality::display_rmse;
+use crate::measure::methods::display_rmse;
 use crate::{RenderError, Renderer};
 
-/// Taps of the filters' sweep.
-pub const FILTER_TAPS: [u32; 4] = [3, 7, 15, 35];
-/// Interval budgets of the analytic rasterizer's sweep: the paper's Figure 15 rates (4, 6, 8, 10) and up to 64.
-pub const ANALYTIC_INTERVALS: [u32; 7] = [4, 6, 8, 10, 16, 32, 64];
-/// Sample points per pixel along each axis of the analytic rasterizer's supersampled points
-/// (at its default budget, the lighting samples divided by the sample points, so the shading
-/// work per pixel stays that of one sample point).
-pub const ANALYTIC_SUPERSAMPLING: [u32; 2] = [2, 4];
-/// Samples per instant of the accumulation buffer's sweep.
-pub const ACCUM_SAMPLES_PER_INSTANT: u32 = 4;
 /// Largest allowed `max_spp` and `reference_spp`.
 pub const MAX_SPP: u32 = 1 << 20;
 
@@ -138,105 +128,9 @@ struct Identity {
     reference_spp: u32,
 }
 
-/// One setting of a method's knob.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Setting {
-    /// The method and its settings.
-    pub spec: MethodSpec,
-    /// The knob's name.
-    pub knob: &'static str,
-    /// Its value.
-    pub value: u32,
-    /// Samples per pixel of the frame scene handed to the method.
-    pub input_spp: u32,
-}
-
-/// Every setting swept for `method`, coarsest first.
-pub fn sweep_settings(method: Method, preset: &Preset, max_spp: u32) -> Vec<Setting> {
-    let levels: Vec<u32> = {
-        let mut l: Vec<u32> = preset.samples_per_pixel.iter().copied().filter(|&s| s <= max_spp).collect();
-        l.sort_unstable();
-        l.dedup();
-        l
-    };
-    let top_level = preset.samples_per_pixel.iter().copied().max().unwrap_or(1);
-    match method {
-        Method::Tracer => {
-            let mut spp: Vec<u32> = std::iter::successors(Some(1u32), |s| s.checked_mul(2))
-                .take_while(|&s| s <= max_spp)
-                .chain(levels.iter().copied())
-                .collect();
-            spp.sort_unstable();
-            spp.dedup();
-            spp.into_iter()
-                .map(|s| Setting { spec: MethodSpec::of(Method::Tracer), knob: "spp", value: s, input_spp: s })
-                .collect()
-        }
-        Method::Accum => {
-            let per = ACCUM_SAMPLES_PER_INSTANT.min(max_spp);
-            std::iter::successors(Some(1u32), |k| k.checked_mul(2))
-                .take_while(|&k| k * per <= max_spp)
-                .map(|k| Setting {
-                    spec: MethodSpec {
-                        instants: Some(k),
-                        samples_per_instant: Some(per),
-                        jitter: Some(false),
-                        ..MethodSpec::of(Method::Accum)
-                    },
-                    knob: "instants",
-                    value: k,
-                    input_spp: per,
-                })
-                .collect()
-        }
-        Method::Mcguire | Method::Guertin => levels
-            .iter()
-            .flat_map(|&level| {
-                FILTER_TAPS.iter().map(move |&taps| Setting {
-                    spec: MethodSpec { taps: Some(taps), ..MethodSpec::of(method) },
-                    knob: "taps",
-                    value: taps,
-                    input_spp: level,
-                })
-            })
-            .collect(),
-        Method::Analytic => ANALYTIC_INTERVALS
-            .iter()
-            .map(|&intervals| Setting {
-                spec: MethodSpec {
-                    intervals: Some(intervals),
-                    lighting_samples: Some(top_level),
-                    ..MethodSpec::of(Method::Analytic)
-                },
-                knob: "intervals",
-                value: intervals,
-                input_spp: top_level,
-            })
-            .chain(ANALYTIC_SUPERSAMPLING.iter().map(|&n| Setting {
-                spec: MethodSpec {
-                    supersampling: Some(n),
-                    lighting_samples: Some((top_level / (n * n)).max(1)),
-                    ..MethodSpec::of(Method::Analytic)
-                },
-                knob: "supersampling",
-                value: n,
-                input_spp: top_level,
-            }))
-            .collect(),
-    }
-}
-
 /// Work units of one render of `setting` over `pixels` pixels.
 fn work_units(setting: &Setting, pixels: u64) -> u64 {
-    let per_pixel = match setting.spec.kind {
-        Method::Tracer => u64::from(setting.value),
-        Method::Accum => u64::from(setting.value) * u64::from(setting.input_spp),
-        Method::Analytic if setting.knob == "supersampling" => {
-            u64::from(crate::analytic::DEFAULT_INTERVALS) * u64::from(setting.value).pow(2)
-        }
-        Method::Mcguire | Method::Guertin | Method::Analytic => u64::from(setting.value),
-    };
-    per_pixel * pixels
+    setting.spec.kind().work_units(setting.knob, setting.value, setting.input_spp) * pixels
 }
 
 /// `(material, speed, shutter, view)` of `text` (`M3-S3-T5`, optionally `-A<a>`, a method
@@ -355,7 +249,7 @@ impl Context<'_, '_> {
         let a = self.renderer.render(&tracer, &reseeded(&scene, &[0x5EFA_C057], half))?.image;
         let b = self.renderer.render(&tracer, &reseeded(&scene, &[0x5EFB_C057], half))?.image;
         let wall_seconds = started.elapsed().as_secs_f64();
-        let image = crate::tracer::bench::average(&a, &b);
+        let image = crate::measure::tracer::average(&a, &b);
         // The mean of two independent halves has half the variance of one: its standard
         // error is half the RMS difference of the halves.
         let standard_error = 0.5 * display_rmse(&a, &b, &scene.exposure);
@@ -376,7 +270,7 @@ impl Context<'_, '_> {
         reference: &Reference,
         map: bool,
     ) -> Result<(CostPoint, bool), CostError> {
-        let key = point_key(setting.spec.kind, setting.knob, setting.value, setting.input_spp, frame, repetition);
+        let key = point_key(setting.spec.kind(), setting.knob, setting.value, setting.input_spp, frame, repetition);
         let path = self.out.join("points").join(format!("{key}.json"));
         if path.exists() {
             let point: CostPoint = serde_json::from_slice(&std::fs::read(&path).map_err(|e| file_error(&path, e))?)
@@ -384,7 +278,7 @@ impl Context<'_, '_> {
             return Ok((point, false));
         }
         let base = self.base_scene(frame)?;
-        let salt = [0xC057, setting.spec.kind as u64, u64::from(setting.value), u64::from(repetition)];
+        let salt = [0xC057, setting.spec.kind() as u64, u64::from(setting.value), u64::from(repetition)];
         let scene = reseeded(&base, &salt, setting.input_spp);
         let started = Instant::now();
         let frame_out = self.renderer.render(&setting.spec, &scene)?;
@@ -394,7 +288,7 @@ impl Context<'_, '_> {
         let flip_mean = perceptual::flip_eyes(&reference.srgb, &srgb, self.eyes, self.ppd)?;
         let pixels = u64::from(image.width) * u64::from(image.height);
         let point = CostPoint {
-            method: setting.spec.kind,
+            method: setting.spec.kind(),
             knob: setting.knob.to_owned(),
             value: setting.value,
             input_spp: setting.input_spp,
@@ -502,9 +396,6 @@ pub fn run_cost(
         ));
     }
     let methods: Vec<Method> = if request.methods.is_empty() { Method::ALL.to_vec() } else { request.methods.clone() };
-    if let Some(m) = methods.iter().find(|m| !crate::method::is_available(**m)) {
-        return bad(format!("--methods: `{m}` is not implemented in this build"));
-    }
     let tag = design.method_tags().first().copied();
     let id = StimulusId { material, speed, shutter, samples: 1, method: tag, view };
     let cell = format!("M{material}-S{speed}-T{shutter}{}", if view == View::Stereo { "-stereo" } else { "" });
@@ -553,7 +444,7 @@ pub fn run_cost(
         out: request.out.clone(),
     };
     let settings: Vec<(Method, Vec<Setting>)> =
-        methods.iter().map(|&m| (m, sweep_settings(m, &preset, request.max_spp))).collect();
+        methods.iter().map(|&m| (m, m.sweep(&preset, request.max_spp))).collect();
     // Every method's finest setting first (repetition 0 of the first frame): the reference
     // is checked against them before the rest is swept.
     let mut order: Vec<(u32, Setting, u32, bool)> = Vec::new();
@@ -623,7 +514,7 @@ pub fn run_cost(
         settings
             .iter()
             .flat_map(|(_, s)| s.iter())
-            .position(|s| s.spec.kind == p.method && s.value == p.value && s.input_spp == p.input_spp)
+            .position(|s| s.spec.kind() == p.method && s.value == p.value && s.input_spp == p.input_spp)
             .unwrap_or(usize::MAX)
     };
     sweep.points.sort_by_key(|p| (position(p), p.frame, p.repetition));
@@ -641,27 +532,34 @@ mod tests {
 
     #[test]
     fn settings_cover_each_knob_coarsest_first() {
+        use study::method::{AnalyticSettings, SWEEP_TAPS};
         let p = preset(vec![1, 4, 8, 12, 16]);
-        let spp: Vec<u32> = sweep_settings(Method::Tracer, &p, 16).iter().map(|s| s.value).collect();
+        let spp: Vec<u32> = Method::Tracer.sweep(&p, 16).iter().map(|s| s.value).collect();
         assert_eq!(spp, vec![1, 2, 4, 8, 12, 16]);
-        let spp: Vec<u32> = sweep_settings(Method::Tracer, &p, 1024).iter().map(|s| s.value).collect();
+        let spp: Vec<u32> = Method::Tracer.sweep(&p, 1024).iter().map(|s| s.value).collect();
         assert_eq!(spp.len(), 12);
-        let accum = sweep_settings(Method::Accum, &p, 16);
+        let accum = Method::Accum.sweep(&p, 16);
         assert_eq!(accum.iter().map(|s| s.value).collect::<Vec<_>>(), vec![1, 2, 4]);
         assert_eq!(work_units(&accum[2], 10), 160);
-        let guertin = sweep_settings(Method::Guertin, &p, 8);
-        assert_eq!(guertin.len(), 3 * FILTER_TAPS.len());
-        assert_eq!((guertin[0].input_spp, guertin[0].value, guertin[0].spec.taps), (1, 3, Some(3)));
-        let analytic = sweep_settings(Method::Analytic, &p, 16);
+        let guertin = Method::Guertin.sweep(&p, 8);
+        assert_eq!(guertin.len(), 3 * SWEEP_TAPS.len());
+        let taps = |s: &Setting| match &s.spec {
+            MethodSpec::Guertin(g) => g.taps,
+            _ => None,
+        };
+        assert_eq!((guertin[0].input_spp, guertin[0].value, taps(&guertin[0])), (1, 3, Some(3)));
+        let analytic = Method::Analytic.sweep(&p, 16);
+        let settings = |s: &Setting| match &s.spec {
+            MethodSpec::Analytic(a) => a.clone(),
+            _ => AnalyticSettings::default(),
+        };
         let budgets: Vec<_> = analytic.iter().filter(|s| s.knob == "intervals").collect();
-        assert_eq!(budgets.last().unwrap().spec.intervals, Some(64));
+        assert_eq!(settings(budgets.last().unwrap()).intervals, Some(64));
         assert_eq!(analytic[0].input_spp, 16);
         // Supersampled last (the finest): 4 x 4 points share the 16 lighting samples.
         let finest = analytic.last().unwrap();
-        assert_eq!(
-            (finest.knob, finest.spec.supersampling, finest.spec.lighting_samples),
-            ("supersampling", Some(4), Some(1))
-        );
+        let a = settings(finest);
+        assert_eq!((finest.knob, a.supersampling, a.lighting_samples), ("supersampling", Some(4), Some(1)));
         assert_eq!(work_units(finest, 10), 8 * 16 * 10);
     }
 }

@@ -143,7 +143,7 @@ pub fn run_quality(
         let (ref_a, ref_seconds, _) = timed(renderer, &tracer, &reseeded(&base, 0x5EFA, half))?;
         let (ref_b, _, _) = timed(renderer, &tracer, &reseeded(&base, 0x5EFB, half))?;
         // The mean of two independent halves; their difference estimates its noise.
-        let reference = crate::tracer::bench::average(&ref_a, &ref_b);
+        let reference = crate::measure::tracer::average(&ref_a, &ref_b);
         let reference_noise = 0.5 * ref_a.rms_difference(&ref_b);
         let exposure = base.exposure;
         let mut methods = serde_json::Map::new();
@@ -153,13 +153,13 @@ pub fn run_quality(
             let scene = design.frame_scene_with(&preset, &id(tag), opts.frame)?;
             let (image, seconds, samples) = timed(renderer, &spec, &scene)?;
             let rmse = display_rmse(&image, &reference, &exposure);
-            if spec.kind == Method::Accum {
+            if spec.kind() == Method::Accum {
                 accum_error = Some((tag, rmse, seconds));
             }
             methods.insert(
                 tag.to_string(),
                 json!({
-                    "kind": spec.kind,
+                    "kind": spec.kind(),
                     "rmse_linear": image.rms_difference(&reference),
                     "rmse_display": rmse,
                     "psnr_db": psnr(rmse),
@@ -203,7 +203,7 @@ pub fn run_quality(
         "level": format!("A{}", opts.level),
         "reference_spp": opts.reference_spp,
         "device": renderer.device_name(),
-        "machine": crate::tracer::bench::machine_json(),
+        "machine": crate::measure::tracer::machine_json(),
         "methods": tags.iter().map(|t| t.to_string()).collect::<Vec<_>>(),
         "cells": rows,
     }))
