@@ -7,10 +7,13 @@
 //! the eye's own camera (so the stereo eyes each get theirs). On the sphere that is the rolling
 //! velocity of the surface point (translation plus spin: twice the speed on top, rest at the
 //! contact). A motion that carries the point past the camera's near plane within the exposure
-//! is clipped there ([`screen_motion`]), not dropped. The floor is static, except in the sphere's shadow region, which moves with the
-//! sphere: floor points where the sphere covers at least [`SHADOW_FORM_FACTOR`] of the
-//! cosine-weighted sky get the sphere's translation, so the filters smear the contact shadow
-//! as the tracer's time integral does.
+//! is clipped there ([`screen_motion`]), not dropped. The floor does not move: its velocity is
+//! zero, as a game engine's velocity buffer holds it, so a moving shadow stays unblurred (a
+//! known limit of post-process blur). [`FloorMotion::Shadow`] (the filters' `shadow_motion`
+//! setting) instead gives floor points where the sphere covers at least
+//! [`SHADOW_FORM_FACTOR`] of the cosine-weighted sky the sphere's translation, so the filters
+//! smear the contact shadow as the tracer's time integral does, but also the floor's own
+//! texture and noise around it (a smooth disc sliding with the sphere).
 
 use glam::{DVec2, DVec3};
 use study::scene::{Camera, FrameScene, Shutter};
@@ -24,6 +27,16 @@ use crate::numeric::solve_quadratic;
 /// point, seen at angle theta from the floor normal, covers the point-to-sphere form factor
 /// cos(theta) r^2 / d^2; 1 % reaches about 4.5 radii from the contact point.
 pub const SHADOW_FORM_FACTOR: f64 = 0.01;
+
+/// The velocity the G-buffer gives the floor.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FloorMotion {
+    /// Its surface motion: none (the floor is static).
+    #[default]
+    Surface,
+    /// The sphere's translation where the sphere's shadow falls ([`SHADOW_FORM_FACTOR`]).
+    Shadow,
+}
 
 /// The centre instant of a frame's shutter.
 pub fn centre_time(shutter: &Shutter) -> f64 {
@@ -46,8 +59,15 @@ pub struct PixelGeometry {
 }
 
 /// The depth and velocity seen through the centre of pixel (`x`, `y`) of `camera` at `time`,
-/// for an exposure of `exposure` seconds.
-pub fn pixel_geometry(scene: &FrameScene, camera: &Camera, x: u32, y: u32, time: f64, exposure: f64) -> PixelGeometry {
+/// for an exposure of `exposure` seconds, the floor moving as `floor` says.
+pub fn pixel_geometry(
+    scene: &FrameScene,
+    camera: &Camera,
+    (x, y): (u32, u32),
+    time: f64,
+    exposure: f64,
+    floor: FloorMotion,
+) -> PixelGeometry {
     let sky = PixelGeometry { depth: SKY_DEPTH, velocity: [0.0, 0.0] };
     let dir = camera.ray_direction(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
     let origin = camera.position;
@@ -72,7 +92,8 @@ pub fn pixel_geometry(scene: &FrameScene, camera: &Camera, x: u32, y: u32, time:
     let p = origin + dir * t;
     let world_velocity = if on_sphere {
         sphere.surface_velocity(p, time)
-    } else if shadow_form_factor(p, normal, centre, sphere.radius) >= SHADOW_FORM_FACTOR {
+    } else if floor == FloorMotion::Shadow && shadow_form_factor(p, normal, centre, sphere.radius) >= SHADOW_FORM_FACTOR
+    {
         sphere.velocity
     } else {
         DVec3::ZERO
@@ -155,8 +176,9 @@ pub fn shadow_form_factor(p: DVec3, n: DVec3, c: DVec3, r: f64) -> f64 {
 }
 
 /// The G-buffer of each eye of `scene` at its shutter's centre, with the radiance `eyes`
-/// rendered at that instant (one image per eye, in the scene's order).
-pub fn gbuffers(scene: &FrameScene, eyes: Vec<LinearImage>) -> Vec<GBuffer> {
+/// rendered at that instant (one image per eye, in the scene's order), the floor moving as
+/// `floor` says.
+pub fn gbuffers(scene: &FrameScene, eyes: Vec<LinearImage>, floor: FloorMotion) -> Vec<GBuffer> {
     let time = centre_time(&scene.shutter);
     let exposure = if scene.needs_time_sampling() { scene.shutter.close - scene.shutter.open } else { 0.0 };
     scene
@@ -168,7 +190,7 @@ pub fn gbuffers(scene: &FrameScene, eyes: Vec<LinearImage>) -> Vec<GBuffer> {
             let (width, height) = (camera.width, camera.height);
             let geometry: Vec<PixelGeometry> = (0..height)
                 .flat_map(|y| (0..width).map(move |x| (x, y)))
-                .map(|(x, y)| pixel_geometry(scene, camera, x, y, time, exposure))
+                .map(|(x, y)| pixel_geometry(scene, camera, (x, y), time, exposure, floor))
                 .collect();
             GBuffer {
                 width,

@@ -8,7 +8,7 @@ mod common;
 use common::{flat, scene, study_camera, study_frame, uniform};
 use glam::{DVec2, DVec3};
 use render::filters::SKY_DEPTH;
-use render::gbuffer::{MAX_VELOCITY, MOTION_NEAR, centre_time, pixel_geometry, screen_motion};
+use render::gbuffer::{FloorMotion, MAX_VELOCITY, MOTION_NEAR, centre_time, pixel_geometry, screen_motion};
 
 #[test]
 fn a_point_moving_past_the_near_plane_keeps_its_clipped_motion() {
@@ -73,12 +73,12 @@ fn at_extreme_speed_every_moving_pixel_of_the_study_frame_keeps_a_velocity() {
     let (mut moving, mut past_the_camera) = (0, 0);
     for y in 0..cam.height {
         for x in 0..cam.width {
-            let ordinary = pixel_geometry(&s, cam, x, y, t, exposure);
+            let ordinary = pixel_geometry(&s, cam, (x, y), t, exposure, FloorMotion::Surface);
             if ordinary.velocity == [0.0, 0.0] {
                 continue;
             }
             moving += 1;
-            let fast = pixel_geometry(&s, cam, x, y, t, exposure * stretch);
+            let fast = pixel_geometry(&s, cam, (x, y), t, exposure * stretch, FloorMotion::Surface);
             assert_ne!(fast.velocity, [0.0, 0.0], "({x}, {y})");
             assert!(fast.velocity.iter().all(|v| v.is_finite()), "({x}, {y}): {:?}", fast.velocity);
             assert!(fast.depth < SKY_DEPTH);
@@ -112,7 +112,7 @@ fn the_filters_blur_a_sphere_whose_motion_passes_the_camera() {
         height: h,
         pixels: (0..w * h).map(|i| [(i % 7) as f32 / 7.0, (i % 5) as f32 / 5.0, (i % 3) as f32 / 3.0]).collect(),
     };
-    let g = render::gbuffer::gbuffers(&s, vec![eye]).remove(0);
+    let g = render::gbuffer::gbuffers(&s, vec![eye], FloorMotion::Surface).remove(0);
     let on_sphere = |i: usize| {
         let (x, y) = (i as u32 % w, i as u32 / w);
         let dir = cam.ray_direction(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));

@@ -10,7 +10,7 @@ use glam::{DVec2, DVec3};
 use render::Renderer;
 use render::env::EnvironmentMap;
 use render::filters::SKY_DEPTH;
-use render::gbuffer::{SHADOW_FORM_FACTOR, centre_time, gbuffers, pixel_geometry, shadow_form_factor};
+use render::gbuffer::{FloorMotion, SHADOW_FORM_FACTOR, centre_time, gbuffers, pixel_geometry, shadow_form_factor};
 use render::io::LinearImage;
 use study::Method;
 use study::method::MethodSpec;
@@ -43,7 +43,7 @@ fn gbuffer_velocity_is_the_projected_displacement_of_the_visible_material_point(
     let (mut on_sphere, mut fastest) = (0, 0.0f64);
     for y in 0..90 {
         for x in 0..160 {
-            let g = pixel_geometry(&s, cam, x, y, t, exposure);
+            let g = pixel_geometry(&s, cam, (x, y), t, exposure, FloorMotion::Surface);
             let dir = cam.ray_direction(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
             // The point the depth names, on the ray; pixels whose point is on the sphere.
             let p = cam.position + dir * (f64::from(g.depth) / dir.dot(cam.forward));
@@ -69,7 +69,7 @@ fn gbuffer_velocity_is_the_projected_displacement_of_the_visible_material_point(
 }
 
 #[test]
-fn gbuffer_floor_is_static_except_in_the_shadow_region_and_the_sky_is_far() {
+fn gbuffer_floor_is_static_and_moves_in_the_shadow_region_only_when_asked() {
     let s = rolling_scene(160, 90);
     let cam = &s.views[0].camera;
     let t = centre_time(&s.shutter);
@@ -83,7 +83,8 @@ fn gbuffer_floor_is_static_except_in_the_shadow_region_and_the_sky_is_far() {
     let (mut moving, mut still, mut sky) = (0, 0, 0);
     for y in 0..90 {
         for x in 0..160 {
-            let g = pixel_geometry(&s, cam, x, y, t, exposure);
+            let g = pixel_geometry(&s, cam, (x, y), t, exposure, FloorMotion::Shadow);
+            let surface = pixel_geometry(&s, cam, (x, y), t, exposure, FloorMotion::Surface);
             let dir = cam.ray_direction(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
             if dir.y >= 0.0 {
                 sky += 1;
@@ -96,6 +97,8 @@ fn gbuffer_floor_is_static_except_in_the_shadow_region_and_the_sky_is_far() {
             if (f64::from(g.depth) - floor_depth).abs() > 1e-5 * floor_depth {
                 continue; // the sphere hides this floor point
             }
+            // By default the floor holds its own (zero) motion everywhere, in the shadow too.
+            assert_eq!((surface.depth, surface.velocity), (g.depth, [0.0, 0.0]), "({x}, {y})");
             let f = shadow_form_factor(p, DVec3::Y, centre, s.sphere.radius);
             if f >= SHADOW_FORM_FACTOR {
                 moving += 1;
@@ -125,10 +128,10 @@ fn without_motion_in_the_shutter_every_velocity_is_zero() {
     let mut s = rolling_scene(48, 27);
     s.shutter = Shutter { open: 0.01, close: 0.01 };
     let eyes = vec![LinearImage::new(48, 27)];
-    assert!(gbuffers(&s, eyes.clone())[0].velocity.iter().all(|v| *v == [0.0, 0.0]));
+    assert!(gbuffers(&s, eyes.clone(), FloorMotion::Surface)[0].velocity.iter().all(|v| *v == [0.0, 0.0]));
     let mut s = rolling_scene(48, 27);
     s.sphere.velocity = DVec3::ZERO;
-    assert!(gbuffers(&s, eyes)[0].velocity.iter().all(|v| *v == [0.0, 0.0]));
+    assert!(gbuffers(&s, eyes, FloorMotion::Surface)[0].velocity.iter().all(|v| *v == [0.0, 0.0]));
 }
 
 #[test]
@@ -291,8 +294,8 @@ fn a_stereo_frame_is_filtered_eye_by_eye_with_each_eyes_own_velocities() {
     left.views = vec![s.views[0].clone()];
     let mut right = s.clone();
     right.views = vec![s.views[1].clone()];
-    let left_g = gbuffers(&left, vec![LinearImage::new(64, 36)]).remove(0);
-    let right_g = gbuffers(&right, vec![LinearImage::new(64, 36)]).remove(0);
+    let left_g = gbuffers(&left, vec![LinearImage::new(64, 36)], FloorMotion::Surface).remove(0);
+    let right_g = gbuffers(&right, vec![LinearImage::new(64, 36)], FloorMotion::Surface).remove(0);
     assert_ne!(left_g.velocity, right_g.velocity, "each eye projects the motion with its own camera");
     for kind in [Method::Mcguire, Method::Guertin] {
         let stereo = render_with(&MethodSpec::of(kind), &s).image;
@@ -304,5 +307,37 @@ fn a_stereo_frame_is_filtered_eye_by_eye_with_each_eyes_own_velocities() {
                 }
             }
         }
+    }
+}
+
+#[test]
+fn the_filters_leave_the_static_floor_unblurred_unless_the_shadow_motion_is_asked_for() {
+    // Issue 24: the shadow region's velocity made the filters smear the floor's noise in a
+    // disc sliding with the sphere. By default the floor is static in the G-buffer: fewer
+    // pixels change from the traced centre instant, and none of them far below the sphere.
+    let mut s = rolling_scene(96, 54);
+    s.samples_per_pixel = 4;
+    let centre = render::gbuffer::instant_scene(&s, centre_time(&s.shutter));
+    let traced = render_with(&MethodSpec::of(Method::Tracer), &centre).image;
+    for kind in [Method::Mcguire, Method::Guertin] {
+        let changed = |spec: &MethodSpec| {
+            let img = render_with(spec, &s).image;
+            img.pixels.iter().zip(&traced.pixels).filter(|(a, b)| a != b).count()
+        };
+        let surface = changed(&MethodSpec::of(kind));
+        let shadow = match kind {
+            Method::Mcguire => {
+                MethodSpec::Mcguire(study::method::McGuireSettings { shadow_motion: Some(true), ..Default::default() })
+            }
+            _ => {
+                MethodSpec::Guertin(study::method::GuertinSettings { shadow_motion: Some(true), ..Default::default() })
+            }
+        };
+        let with_shadow = changed(&shadow);
+        assert!(surface > 0, "{kind}: the moving sphere is blurred");
+        assert!(
+            surface < with_shadow,
+            "{kind}: {surface} pixels changed with a static floor, {with_shadow} with the shadow moving"
+        );
     }
 }

@@ -14,7 +14,7 @@ use study::method::{GuertinSettings, McGuireSettings};
 
 use crate::filters::{GBuffer, GpuFilters, guertin_cpu, mcguire_cpu};
 use crate::filters::{GuertinParams, McGuireParams};
-use crate::gbuffer::{centre_time, gbuffers, instant_scene};
+use crate::gbuffer::{FloorMotion, centre_time, gbuffers, instant_scene};
 use crate::method::filter_seed;
 
 /// What to measure.
@@ -57,7 +57,7 @@ pub fn benchmark_gbuffer(design: &Design, width: u32, height: u32) -> Result<GBu
     let env = crate::env::EnvironmentMap::from_lighting(&scene.lighting)?;
     let centre = instant_scene(&scene, centre_time(&scene.shutter));
     let eyes = crate::tracer::render_frame(&centre, &env).eyes;
-    Ok(gbuffers(&scene, eyes).remove(0))
+    Ok(gbuffers(&scene, eyes, FloorMotion::default()).remove(0))
 }
 
 fn median(mut v: Vec<f64>) -> f64 {

@@ -6,6 +6,7 @@ use study::method::GuertinSettings;
 
 use super::post_process::Filter;
 use crate::filters::{FilterError, FilteredImage, GBuffer, GpuFilters, GuertinParams};
+use crate::gbuffer::FloorMotion;
 
 /// Guertin et al.'s filter.
 pub struct Guertin;
@@ -16,6 +17,10 @@ impl Filter for Guertin {
 
     fn params(settings: &GuertinSettings, seed: u32) -> GuertinParams {
         GuertinParams::from_settings(settings, seed)
+    }
+
+    fn floor_motion(settings: &GuertinSettings) -> FloorMotion {
+        if settings.shadow_motion() { FloorMotion::Shadow } else { FloorMotion::Surface }
     }
 
     fn gpu(gpu: &GpuFilters, g: &GBuffer, params: &GuertinParams) -> Result<FilteredImage, FilterError> {

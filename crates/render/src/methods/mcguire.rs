@@ -6,6 +6,7 @@ use study::method::McGuireSettings;
 
 use super::post_process::Filter;
 use crate::filters::{FilterError, FilteredImage, GBuffer, GpuFilters, McGuireParams};
+use crate::gbuffer::FloorMotion;
 
 /// McGuire et al.'s filter.
 pub struct McGuire;
@@ -16,6 +17,10 @@ impl Filter for McGuire {
 
     fn params(settings: &McGuireSettings, seed: u32) -> McGuireParams {
         McGuireParams::from_settings(settings, seed)
+    }
+
+    fn floor_motion(settings: &McGuireSettings) -> FloorMotion {
+        if settings.shadow_motion() { FloorMotion::Shadow } else { FloorMotion::Surface }
     }
 
     fn gpu(gpu: &GpuFilters, g: &GBuffer, params: &McGuireParams) -> Result<FilteredImage, FilterError> {

@@ -10,7 +10,7 @@ use super::tracer::trace;
 use super::{GpuHosts, RenderMethod};
 use crate::device::{DeviceError, Renderer, Submitted, add_seconds};
 use crate::filters::{FilterError, FilteredImage, GBuffer, GpuFilters};
-use crate::gbuffer::{centre_time, gbuffers, instant_scene};
+use crate::gbuffer::{FloorMotion, centre_time, gbuffers, instant_scene};
 use crate::io::LinearImage;
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
 
@@ -31,6 +31,8 @@ pub trait Filter {
     type Params;
     /// The parameters of `settings` with the per-pixel jitter `seed`.
     fn params(settings: &Self::Settings, seed: u32) -> Self::Params;
+    /// How the G-buffer moves the floor under `settings`.
+    fn floor_motion(settings: &Self::Settings) -> FloorMotion;
     /// The WGSL passes on the filters' GPU host.
     fn gpu(gpu: &GpuFilters, g: &GBuffer, params: &Self::Params) -> Result<FilteredImage, FilterError>;
     /// The CPU twin.
@@ -55,7 +57,7 @@ impl<F: Filter> RenderMethod for PostProcess<F> {
         scene: &FrameScene,
         _: &[u32],
     ) -> Result<Submitted<'r>, RenderError> {
-        let frame = render_filtered(renderer, scene, |g, seed, gpu| {
+        let frame = render_filtered(renderer, scene, F::floor_motion(settings), |g, seed, gpu| {
             let params = F::params(settings, seed);
             match gpu {
                 Some(gpu) => F::gpu(gpu, g, &params).map(|out| (out.color, out.gpu_seconds)),
@@ -85,6 +87,7 @@ type Filtered = (Vec<[f32; 3]>, Option<f64>);
 fn render_filtered(
     renderer: &Renderer<'_>,
     scene: &FrameScene,
+    floor: FloorMotion,
     filter: impl Fn(&GBuffer, u32, Option<&GpuFilters>) -> Result<Filtered, FilterError>,
 ) -> Result<RenderedFrame, RenderError> {
     let centre = instant_scene(scene, centre_time(&scene.shutter));
@@ -93,7 +96,7 @@ fn render_filtered(
     let mut nonfinite_samples = traced.nonfinite_samples;
     let eyes = if scene.needs_time_sampling() {
         let mut eyes = Vec::with_capacity(scene.views.len());
-        for (g, view) in gbuffers(scene, traced.eyes).iter().zip(&scene.views) {
+        for (g, view) in gbuffers(scene, traced.eyes, floor).iter().zip(&scene.views) {
             nonfinite_samples += crate::filters::nonfinite_pixels(g);
             let (color, seconds) = filter(g, crate::method::filter_seed(view.seed), renderer.gpu_host::<GpuFilters>())
                 .map_err(filter_error)?;

@@ -4,8 +4,7 @@
 
 use super::mcguire::{filter_samples_cost, filter_sweep};
 use super::{
-    CurveInput, FILTER_COUNT_RANGE, KeyError, MethodSettings, MethodTable, SweepSetting, check_count,
-    check_real,
+    CurveInput, FILTER_COUNT_RANGE, KeyError, MethodSettings, MethodTable, SweepSetting, check_count, check_real,
 };
 use crate::design::Preset;
 
@@ -29,6 +28,9 @@ pub struct GuertinSettings {
     /// Split the samples by the tile's velocity variance (section 4.2; off in the paper's
     /// results but one).
     pub tile_variance: Option<bool>,
+    /// The floor in the sphere's shadow moves with the sphere in the G-buffer (off: the
+    /// floor is static, as a velocity buffer holds it).
+    pub shadow_motion: Option<bool>,
 }
 
 defaults!(GuertinSettings {
@@ -48,10 +50,13 @@ defaults!(GuertinSettings {
     phi: f64 = 27.0,
     /// The tile-variance split, off by default.
     tile_variance: bool = false,
+    /// The shadow's motion on the floor, off by default.
+    shadow_motion: bool = false,
 });
 
 impl MethodSettings for GuertinSettings {
-    const KEYS: &'static [&'static str] = &["taps", "tile", "tau", "kappa", "eta", "gamma", "phi", "tile_variance"];
+    const KEYS: &'static [&'static str] =
+        &["taps", "tile", "tau", "kappa", "eta", "gamma", "phi", "tile_variance", "shadow_motion"];
     const CURVE_INPUT: CurveInput = CurveInput::Highest;
 
     fn from_table(t: &MethodTable) -> Self {
@@ -64,12 +69,14 @@ impl MethodSettings for GuertinSettings {
             gamma: t.gamma,
             phi: t.phi,
             tile_variance: t.tile_variance,
+            shadow_motion: t.shadow_motion,
         }
     }
 
     fn write_table(&self, t: &mut MethodTable) {
         (t.taps, t.tile, t.tau, t.kappa) = (self.taps, self.tile, self.tau, self.kappa);
         (t.eta, t.gamma, t.phi, t.tile_variance) = (self.eta, self.gamma, self.phi, self.tile_variance);
+        t.shadow_motion = self.shadow_motion;
     }
 
     fn check(&self) -> Result<(), KeyError> {

@@ -2,8 +2,7 @@
 //! (S = 15 taps, tile k = 20), ranges and cost; its cost knob is the taps at each A level.
 
 use super::{
-    CurveInput, FILTER_COUNT_RANGE, KeyError, MethodSettings, MethodTable, SweepSetting, check_count,
-    check_real,
+    CurveInput, FILTER_COUNT_RANGE, KeyError, MethodSettings, MethodTable, SweepSetting, check_count, check_real,
 };
 use crate::design::Preset;
 
@@ -38,6 +37,9 @@ pub struct McGuireSettings {
     pub tile: Option<u32>,
     /// The soft depth comparison's extent, metres.
     pub soft_z_extent: Option<f64>,
+    /// The floor in the sphere's shadow moves with the sphere in the G-buffer (off: the
+    /// floor is static, as a velocity buffer holds it).
+    pub shadow_motion: Option<bool>,
 }
 
 defaults!(McGuireSettings {
@@ -48,18 +50,21 @@ defaults!(McGuireSettings {
     /// Soft depth extent, 0.1 m by default (metre-scale scenes; the paper leaves it to the
     /// scene).
     soft_z_extent: f64 = 0.1,
+    /// The shadow's motion on the floor, off by default.
+    shadow_motion: bool = false,
 });
 
 impl MethodSettings for McGuireSettings {
-    const KEYS: &'static [&'static str] = &["taps", "tile", "soft_z_extent"];
+    const KEYS: &'static [&'static str] = &["taps", "tile", "soft_z_extent", "shadow_motion"];
     const CURVE_INPUT: CurveInput = CurveInput::Highest;
 
     fn from_table(t: &MethodTable) -> Self {
-        McGuireSettings { taps: t.taps, tile: t.tile, soft_z_extent: t.soft_z_extent }
+        McGuireSettings { taps: t.taps, tile: t.tile, soft_z_extent: t.soft_z_extent, shadow_motion: t.shadow_motion }
     }
 
     fn write_table(&self, t: &mut MethodTable) {
-        (t.taps, t.tile, t.soft_z_extent) = (self.taps, self.tile, self.soft_z_extent);
+        (t.taps, t.tile, t.soft_z_extent, t.shadow_motion) =
+            (self.taps, self.tile, self.soft_z_extent, self.shadow_motion);
     }
 
     fn check(&self) -> Result<(), KeyError> {

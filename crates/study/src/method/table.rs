@@ -49,6 +49,9 @@ pub struct MethodTable {
     /// Guertin: phi.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub phi: Option<f64>,
+    /// Filters: the floor in the sphere's shadow moves with the sphere in the G-buffer.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shadow_motion: Option<bool>,
     /// Guertin: the tile-variance sampling split.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tile_variance: Option<bool>,
@@ -75,6 +78,7 @@ impl MethodTable {
         "taps",
         "tile",
         "soft_z_extent",
+        "shadow_motion",
         "tau",
         "kappa",
         "eta",
@@ -96,6 +100,7 @@ impl MethodTable {
             self.taps.is_some(),
             self.tile.is_some(),
             self.soft_z_extent.is_some(),
+            self.shadow_motion.is_some(),
             self.tau.is_some(),
             self.kappa.is_some(),
             self.eta.is_some(),
