@@ -3,6 +3,8 @@
 //! killed mid-way continues when rerun and gives the uninterrupted sweep's errors; bad
 //! arguments are clear errors with exit code 2.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};

@@ -3,6 +3,8 @@
 //! records the mode; a set refuses the other mode; `--device gpu` without an adapter is a
 //! clear error and `--device auto` falls back to the CPU.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::process::{Command, Output};
 
 use blurlab_e2e::{blurlab, repo_root, shipped_design, stderr};

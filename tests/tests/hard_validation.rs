@@ -2,6 +2,8 @@
 //! before rendering, with exit code 2 and the design's file, line and key; what a renderer
 //! refuses of a frame (the GPU's one wrap per exposure) is bad input too.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::path::{Path, PathBuf};
 use std::process::Output;
 

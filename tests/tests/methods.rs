@@ -4,6 +4,8 @@
 //! participants; `blurlab analyze` groups the methods like any other factor, with their cost
 //! from the manifests. `render-frame --method` renders one frame with any method.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::path::Path;
 
 use blurlab_e2e::{repo_root, run};

@@ -2,6 +2,8 @@
 //! processes: one writer per session log, one writer per set folder with an index rebuilt
 //! from verified manifests, and stimuli verified before a participant sees them.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};

@@ -3,6 +3,8 @@
 //! missing, duplicated and damaged units; a killed shard completes with `--resume`; bad
 //! shard specifications are clear errors that leave verified data alone.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

@@ -1,6 +1,8 @@
 //! `blurlab stimuli` and `blurlab render-frame` through the built binary: listing, scene
 //! description, rendering a small set, determinism, resume after a kill, and bad input.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

@@ -70,9 +70,11 @@ pub struct MarkedGroup {
 impl MarkedGroup {
     /// The member on the curves with the smallest median time.
     pub fn cheapest(&self) -> Option<&MarkedMember> {
-        self.members.iter().filter(|m| m.row.is_some()).min_by(|a, b| {
-            a.row.as_ref().unwrap().wall_seconds.median.total_cmp(&b.row.as_ref().unwrap().wall_seconds.median)
-        })
+        self.members
+            .iter()
+            .filter_map(|m| m.row.as_ref().map(|row| (m, row.wall_seconds.median)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(m, _)| m)
     }
 }
 

@@ -428,10 +428,10 @@ fn analyze_paired(
             .collect::<Vec<_>>()
     };
     let overall = trials_of(None);
-    factor_prefs.insert("all".to_owned(), factor_preferences(overall.iter().copied(), varying));
+    factor_prefs.insert("all".to_owned(), factor_preferences(&overall, varying));
     for (segment, sessions) in segments(&data.sessions) {
         let list = trials_of(Some(&sessions));
-        factor_prefs.insert(segment, factor_preferences(list.iter().copied(), varying));
+        factor_prefs.insert(segment, factor_preferences(&list, varying));
     }
     PairedReport {
         judge_unit: options.judge_unit,

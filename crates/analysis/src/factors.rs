@@ -59,14 +59,14 @@ pub fn level_preference(factor: Factor, level_a: u8, level_b: u8, n: u32, chose_
 }
 
 /// Preferences for every factor and level pair over `trials` of `(first, second, choice)`.
-pub fn factor_preferences<'a>(
-    trials: impl IntoIterator<Item = (&'a StimulusId, &'a StimulusId, &'a StimulusId)> + Clone,
+pub fn factor_preferences(
+    trials: &[(&StimulusId, &StimulusId, &StimulusId)],
     factors: &[Factor],
 ) -> Vec<LevelPreference> {
     let mut out = Vec::new();
     for &factor in factors {
         let mut levels: Vec<u8> = Vec::new();
-        for (a, b, _) in trials.clone() {
+        for &(a, b, _) in trials {
             for l in [a.level(factor), b.level(factor)] {
                 if !levels.contains(&l) {
                     levels.push(l);
@@ -77,7 +77,7 @@ pub fn factor_preferences<'a>(
         for (i, &la) in levels.iter().enumerate() {
             for &lb in &levels[i + 1..] {
                 let (mut n, mut k) = (0, 0);
-                for (a, b, choice) in trials.clone() {
+                for &(a, b, choice) in trials {
                     let pair = (a.level(factor), b.level(factor));
                     if pair == (la, lb) || pair == (lb, la) {
                         n += 1;
@@ -117,7 +117,10 @@ mod tests {
         let id = |s: &str| s.parse::<StimulusId>().unwrap();
         let (a, b, c) = (id("M2-S2-T3-A5"), id("M3-S2-T3-A5"), id("M3-S3-T3-A5"));
         let trials = [(a, b, b), (b, c, b), (a, c, a)];
-        let prefs = factor_preferences(trials.iter().map(|(x, y, z)| (x, y, z)), &[Factor::Material, Factor::Speed]);
+        let prefs = factor_preferences(
+            &trials.iter().map(|(x, y, z)| (x, y, z)).collect::<Vec<_>>(),
+            &[Factor::Material, Factor::Speed],
+        );
         let material = &prefs[0];
         assert_eq!((material.n, material.chose_a), (2, 1));
         let speed = &prefs[1];

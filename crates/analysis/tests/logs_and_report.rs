@@ -2,6 +2,8 @@
 //! `study::response::ResponseLog`: statistics, report folder, figures, cost-aware
 //! equivalence, and bad input (errors naming file and line).
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::path::{Path, PathBuf};
 
 use analysis::experiment::{AnalysisOptions, JudgeUnit};

@@ -35,14 +35,14 @@ enum Command {
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Stimuli(args) => cmd::stimuli::run(args),
-        Command::RenderFrame(args) => cmd::render_frame::run(args),
-        Command::Run(args) => cmd::run::run(args),
-        Command::Analyze(args) => cmd::analyze::run(args),
-        Command::Stats(args) => cmd::stats::run(args),
-        Command::Bench(args) => cmd::bench::run(args),
-        Command::Cost(args) => cmd::cost::run(args),
-        Command::Demo(args) => cmd::demo::run(args),
+        Command::Stimuli(args) => cmd::stimuli::run(&args),
+        Command::RenderFrame(args) => cmd::render_frame::run(&args),
+        Command::Run(args) => cmd::run::run(&args),
+        Command::Analyze(args) => cmd::analyze::run(&args),
+        Command::Stats(args) => cmd::stats::run(&args),
+        Command::Bench(args) => cmd::bench::run(&args),
+        Command::Cost(args) => cmd::cost::run(&args),
+        Command::Demo(args) => cmd::demo::run(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -3,6 +3,8 @@
 //! rule: without an adapter it prints `SKIPPED: no GPU adapter ...`, and with
 //! `BLURLAB_REQUIRE_GPU=1` it fails instead.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use gpu::wgpu;
 use gpu::{AdapterChoice, DeviceRequest, GpuContext, GpuError, TimingSource, WgslAssembler};
 use wgpu::util::DeviceExt;

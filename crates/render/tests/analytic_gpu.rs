@@ -5,6 +5,8 @@
 //! triangles are about a pixel and it moves 9 px). Without a GPU adapter the GPU tests say
 //! SKIPPED (and fail under `BLURLAB_REQUIRE_GPU=1`).
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 mod common;
 
 use glam::{DVec2, Vec3};

@@ -3,6 +3,8 @@
 //! method's finest setting approaches the reference or its bias floor, a stopped sweep
 //! resumes to the same table, and bad requests are clear errors. CPU only.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::path::{Path, PathBuf};
 
 use render::env::EnvironmentMap;

@@ -11,6 +11,8 @@
 //! matrix runs at CI's size. Without a GPU adapter the GPU half says SKIPPED (and fails under
 //! `BLURLAB_REQUIRE_GPU=1`).
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::collections::HashMap;
 use std::path::Path;
 

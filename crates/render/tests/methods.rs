@@ -3,6 +3,8 @@
 //! post-process filters over the G-buffer of a moving sphere against the same closed form.
 //! Frames without motion during an open shutter must be the tracer's bytes.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 mod common;
 
 use common::{L, coverage_scene, exact_coverage, flat, scene, study_camera, uniform};

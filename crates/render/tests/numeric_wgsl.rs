@@ -4,6 +4,8 @@
 //! rounding where `normalize`, `sqrt` and division may differ (offsets, the quadratic). Vulkan does not promise a fused `fma`; the difference of products is
 //! compared exactly where the adapter fuses (measured below) and the test says which.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use rand::{RngExt, SeedableRng};
 use render::numeric::{
     difference_of_products_f32, next_float_down_f32, next_float_up_f32, offset_ray_origin_f32, solve_quadratic_f32,

@@ -4,6 +4,8 @@
 //! form (white furnace, motion coverage) and the f32 hard cases. Without a GPU adapter each
 //! test says SKIPPED (and fails under `BLURLAB_REQUIRE_GPU=1`).
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 mod common;
 
 use common::{L, assert_coverage_matches, coverage_scene, flat, furnace_scene, scene, study_camera, uniform};

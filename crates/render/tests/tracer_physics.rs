@@ -3,6 +3,8 @@
 //! and hard cases. Scenes are built directly from `study::scene` types. Tolerances come
 //! from Monte Carlo standard errors estimated from the renders themselves.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 mod common;
 
 use common::*;

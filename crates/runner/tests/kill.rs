@@ -3,6 +3,8 @@
 //! it to the end, and checks that no answered trial was lost and that the log equals that of
 //! an uninterrupted session with the same seed (timestamps aside).
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
 use std::time::{Duration, Instant};

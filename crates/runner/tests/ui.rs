@@ -8,6 +8,8 @@
 //! missing adapter fails the test, otherwise that step is skipped with a
 //! `SKIPPED: no GPU adapter ...` line in the test output.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};

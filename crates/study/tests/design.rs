@@ -1,5 +1,7 @@
 //! The shipped design file, its error messages, and the scenes it produces.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::path::{Path, PathBuf};
 
 use glam::{DVec2, DVec3};

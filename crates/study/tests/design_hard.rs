@@ -1,6 +1,8 @@
 //! Hard values a design may not hold (issue 31): what no renderer can render, or renders
 //! only as nonsense, is refused here, naming the file, the line and the key.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::path::{Path, PathBuf};
 
 use study::design::{Design, MAX_BOUNCES, MAX_FRAME_SAMPLES};

@@ -8,6 +8,8 @@
 //! The case budget is `BLURLAB_FUZZ_CASES` per property (default 64: a few seconds in CI);
 //! run longer by hand, e.g. `BLURLAB_FUZZ_CASES=20000 cargo test -p blurlab-study --test fuzz`.
 
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
 use std::path::{Path, PathBuf};
 
 use proptest::prelude::*;

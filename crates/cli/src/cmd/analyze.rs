@@ -54,14 +54,14 @@ fn bad(e: impl std::fmt::Display) -> anyhow::Error {
 }
 
 /// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(alpha) = args.alpha
         && !(alpha > 0.0 && alpha < 1.0)
     {
         return Err(bad(format!("--alpha {alpha}: expected a number strictly between 0 and 1")));
     }
     if let Some(path) = &args.votes {
-        return run_votes(path, &args);
+        return run_votes(path, args);
     }
     if args.results.is_empty() {
         return Err(bad("give response logs (files or folders) or --votes FILE"));

@@ -56,8 +56,8 @@ enum Which {
 }
 
 /// Runs the chosen benchmark.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    match args.which {
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    match &args.which {
         Which::Tracer(a) => tracer::run(a),
         Which::Filters(a) => filters::run(a),
         Which::Methods(a) => methods::run(a),

@@ -114,8 +114,8 @@ pub fn cost_report(args: &Args) -> anyhow::Result<PathBuf> {
 }
 
 /// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    let md = cost_report(&args)?;
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let md = cost_report(args)?;
     println!("cost report: {}", md.display());
     Ok(())
 }

@@ -62,7 +62,7 @@ fn definition(dir: &Path, name: &str) -> anyhow::Result<ExperimentDefinition> {
 }
 
 /// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     let definitions: Vec<ExperimentDefinition> =
         EXPERIMENTS.iter().map(|n| definition(&args.experiments, n)).collect::<anyhow::Result<_>>()?;
     let design = Design::load(&args.design).map_err(|e| BadInput(e.to_string()))?;
@@ -108,11 +108,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let results = args.out.join("results");
     let model = ObserverModel::Thurstone { sigma: 1.0, quality: Quality::Rule };
-    simulate_all(&args, &definitions, &results, &model, "simulated participants")?;
+    simulate_all(args, &definitions, &results, &model, "simulated participants")?;
     // The image-computable observer on the same trials: groups predicted from the frames.
     let predicted_results = args.out.join("results-flip");
     let flip: ObserverModel = "flip".parse().map_err(runner_error)?;
-    simulate_all(&args, &definitions, &predicted_results, &flip, "FLIP observers")?;
+    simulate_all(args, &definitions, &predicted_results, &flip, "FLIP observers")?;
 
     let logs: Vec<PathBuf> = EXPERIMENTS.iter().map(|n| results.join(n)).collect();
     let options = AnalysisOptions {

@@ -31,7 +31,7 @@ fn parse_method(text: &str) -> Result<Method, String> {
 }
 
 /// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     let Frame { id, scene, design, .. } = args.frame.resolve()?;
     let spec = design.method_with(&id, args.method).map_err(|e| BadInput(e.to_string()))?;
     let method = spec.kind();

@@ -91,7 +91,7 @@ pub fn check_refresh_hz(hz: Option<f64>) -> anyhow::Result<()> {
 }
 
 /// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     let path = resolve_experiment(&args.experiment);
     let definition = ExperimentDefinition::read(&path).map_err(|e| runner_error(e.into()))?;
     let display: DisplayMode = match &args.display {

@@ -30,7 +30,7 @@ enum Which {
 }
 
 /// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     match args.which {
         Which::SrangeQuantile { t, alpha, judges, json } => {
             let w = analysis::srange::srange_quantile(t, alpha).map_err(|e| BadInput(e.to_string()))?;

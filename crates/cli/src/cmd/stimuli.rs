@@ -220,8 +220,8 @@ struct EnvArgs {
 }
 
 /// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    match args.command {
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    match &args.command {
         Command::Render(a) => render(a),
         Command::Merge(a) => merge(a),
         Command::List(a) => list(a),
@@ -236,6 +236,7 @@ pub fn load_design(path: &Path) -> anyhow::Result<Design> {
 }
 
 /// Marks a design error as bad input (exit code 2).
+#[expect(clippy::needless_pass_by_value, reason = "the `map_err` adapter of every design call")]
 pub fn design_error(e: DesignError) -> anyhow::Error {
     BadInput(e.to_string()).into()
 }
@@ -268,7 +269,7 @@ fn selected(design: &Design, select: &Selecting) -> anyhow::Result<Vec<StimulusI
     Ok(ids)
 }
 
-fn render(a: RenderArgs) -> anyhow::Result<()> {
+fn render(a: &RenderArgs) -> anyhow::Result<()> {
     let design = load_design(&a.select.design)?;
     let preset = design.preset(&a.select.preset).map_err(design_error)?;
     let ids = selected(&design, &a.select)?;
@@ -321,7 +322,7 @@ fn render(a: RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn merge(a: MergeArgs) -> anyhow::Result<()> {
+fn merge(a: &MergeArgs) -> anyhow::Result<()> {
     let r = merge_shards(&a.out, &a.dirs, a.progress.into()).map_err(set_error)?;
     eprintln!(
         "{}: {} units of {} shards verified, {} sequences in the set, {} frame files copied, {:.1} s",
@@ -350,7 +351,7 @@ pub fn set_error(e: SetError) -> anyhow::Error {
     if e.is_bad_input() { BadInput(e.to_string()).into() } else { anyhow::Error::new(e) }
 }
 
-fn list(a: ListArgs) -> anyhow::Result<()> {
+fn list(a: &ListArgs) -> anyhow::Result<()> {
     let design = load_design(&a.select.design)?;
     design.preset(&a.select.preset).map_err(design_error)?;
     for id in selected(&design, &a.select)? {
@@ -359,7 +360,7 @@ fn list(a: ListArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn describe(a: DescribeArgs) -> anyhow::Result<()> {
+fn describe(a: &DescribeArgs) -> anyhow::Result<()> {
     let Frame { design, preset, id, scene } = a.frame.resolve()?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&scene)?);
@@ -421,7 +422,7 @@ fn describe(a: DescribeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn env(a: EnvArgs) -> anyhow::Result<()> {
+fn env(a: &EnvArgs) -> anyhow::Result<()> {
     let width = a.width.unwrap_or(1024);
     if !(4..=8192).contains(&width) || !width.is_multiple_of(2) {
         return Err(BadInput(format!("--width {width}: must be an even number from 4 to 8192")).into());

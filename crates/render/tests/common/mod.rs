@@ -1,4 +1,6 @@
 //! Scenes shared by the CPU and GPU tracer tests.
+
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
 #![allow(dead_code)]
 
 use glam::{DQuat, DVec3};

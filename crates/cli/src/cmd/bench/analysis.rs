@@ -24,7 +24,7 @@ pub struct Args {
 }
 
 /// Runs the benchmark.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     let value = analysis::synthetic::benchmark(args.judges, args.resamples, args.repeats, args.seed);
     println!("{}", serde_json::to_string_pretty(&value)?);
     Ok(())

@@ -37,7 +37,7 @@ pub struct Args {
 }
 
 /// Runs the benchmark.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     let design = load_design(&args.frame.design)?;
     let params = AnalyticParams {
         intervals: args.intervals,

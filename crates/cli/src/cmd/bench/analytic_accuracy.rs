@@ -80,7 +80,7 @@ fn contact_shadows(design: &study::design::Design, args: &Args) -> anyhow::Resul
 }
 
 /// Runs the measurement.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     let max = render::analytic::MAX_TESSELLATION;
     if let Some(bad) = args.tessellations.iter().chain([&args.tessellation]).find(|&&s| !(3..=max).contains(&s)) {
         return Err(BadInput(format!("--tessellation(s): {bad} is outside 3..={max}")).into());
@@ -99,7 +99,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let tessellation = measure(VertexPaths::Translated);
     let chords = measure(VertexPaths::RollingChords);
-    let shadows = contact_shadows(&design, &args)?;
+    let shadows = contact_shadows(&design, args)?;
     let report = json!({
         "frame": {"id": "M3-S3-T5", "width": args.size.width, "height": args.size.height, "stride": args.stride},
         "depth_error": {"segments": args.tessellation, "paths": "rolling_chords", "histogram": depth},

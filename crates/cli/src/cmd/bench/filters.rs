@@ -34,7 +34,7 @@ pub struct Args {
 }
 
 /// Runs the benchmark.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     let design = load_design(&args.frame.design)?;
     let adapters = match args.device {
         DeviceArg::Cpu => None,

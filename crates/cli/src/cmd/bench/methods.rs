@@ -40,7 +40,7 @@ pub struct Args {
 }
 
 /// Runs the benchmark.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     let design = load_design(&args.design)?;
     let preset = design.preset(&args.preset).map_err(design_error)?;
     let probe =
@@ -48,7 +48,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let env = render::env::EnvironmentMap::from_lighting(&probe.lighting).map_err(|e| BadInput(e.to_string()))?;
     let renderer = render::Renderer::open(args.device.into(), &env).map_err(|e| BadInput(e.to_string()))?;
     let opts = QualityOptions {
-        preset: args.preset,
+        preset: args.preset.clone(),
         frame: args.frame,
         level: args.level,
         reference_spp: args.reference_spp,

@@ -57,7 +57,7 @@ fn definition(dir: &Path, view: &str, samples: &str) -> anyhow::Result<Experimen
 }
 
 /// Runs the benchmark.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     let _ = args.json;
     check_refresh_hz(args.refresh_hz)?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get()));
@@ -66,7 +66,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => (std::env::temp_dir().join(format!("blurlab-bench-playback-{}", std::process::id())), true),
     };
     std::fs::create_dir_all(&work).with_context(|| work.display().to_string())?;
-    let result = measure(&args, &work, threads);
+    let result = measure(args, &work, threads);
     if temporary {
         let _ = std::fs::remove_dir_all(&work);
     }

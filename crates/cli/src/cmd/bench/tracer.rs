@@ -67,10 +67,14 @@ fn gpu_tracer(device: DeviceArg) -> anyhow::Result<Option<render::tracer::gpu::G
 }
 
 /// Runs the benchmark.
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(tracer) = gpu_tracer(args.device)? {
-        let opts =
-            GpuBenchOptions { design: args.frame.design, spp: args.spp, cpu_spp: args.cpu_spp, rounds: args.rounds };
+        let opts = GpuBenchOptions {
+            design: args.frame.design.clone(),
+            spp: args.spp,
+            cpu_spp: args.cpu_spp,
+            rounds: args.rounds,
+        };
         let result = run_gpu_benchmark(&tracer, &opts)?;
         if args.frame.json {
             println!("{}", serde_json::to_string_pretty(&result)?);
@@ -102,13 +106,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Ok(());
     }
     let opts = BenchOptions {
-        design: args.frame.design,
+        design: args.frame.design.clone(),
         spp: args.spp,
-        peer: args.peer,
-        python: args.python,
-        peer_script: args.peer_script,
-        mitsuba_sampler: args.mitsuba_sampler,
-        work: args.work,
+        peer: args.peer.clone(),
+        python: args.python.clone(),
+        peer_script: args.peer_script.clone(),
+        mitsuba_sampler: args.mitsuba_sampler.clone(),
+        work: args.work.clone(),
         rounds: args.rounds,
     };
     let result = run_benchmark(&opts)?;
