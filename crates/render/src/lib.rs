@@ -10,7 +10,6 @@
 
 pub mod accum;
 pub mod analytic;
-pub mod device;
 pub mod env;
 pub mod filters;
 pub mod gbuffer;
@@ -19,7 +18,9 @@ pub mod measure;
 pub mod method;
 pub mod methods;
 pub mod numeric;
+pub mod renderer;
+pub mod shading;
 pub mod tracer;
 
-pub use device::{DeviceChoice, Renderer};
 pub use method::{RenderError, RenderedFrame, render_frame};
+pub use renderer::{DeviceChoice, Renderer};

@@ -1,5 +1,5 @@
 //! The analytic rasterizer's GPU kernel (`shaders/analytic.wgsl`) against its f32 CPU twin
-//! (`render::analytic::gpu::cpu`), and the twin against the f64 rasterizer
+//! (`render::analytic::gpu::analytic_twin`), and the twin against the f64 rasterizer
 //! (`render::analytic`): coverage without shading noise pixel by pixel, shaded frames, and
 //! the interval counts. Small study frames (64 x 36, and zoomed in 4x so the sphere's
 //! triangles are about a pixel and it moves 9 px). Without a GPU adapter the GPU tests say
@@ -13,14 +13,14 @@ use glam::{DVec2, Vec3};
 use render::analytic::AnalyticParams;
 use render::analytic::frame::{RasterStats, bin, rasterize_sample};
 use render::analytic::geometry::{CameraFrame, SurfaceKind, scene_triangles};
-use render::analytic::gpu::cpu::{Kernel, render_view};
-use render::analytic::gpu::device::raster_stats;
+use render::analytic::gpu::analytic_host::raster_stats;
+use render::analytic::gpu::analytic_twin::{Kernel, render_view};
 use render::analytic::gpu::{GpuAnalytic, Prepared};
 use render::analytic::interval::SEARCH_RANGE_OPAQUE;
 use render::analytic::resolve::resolve_opaque;
 use render::env::EnvironmentMap;
+use render::shading::gpu::params::{EnvTables, Specialisation};
 use render::tracer::gpu::GpuTracer;
-use render::tracer::gpu::params::{EnvTables, Specialisation};
 use study::scene::FrameScene;
 
 fn study_scene(width: u32, height: u32, spp: u32, zoom: f64) -> FrameScene {
@@ -53,7 +53,12 @@ fn f64_coverage(s: &FrameScene, params: &AnalyticParams) -> Vec<[f64; 2]> {
     out
 }
 
-fn twin(s: &FrameScene, tables: &EnvTables, params: &AnalyticParams, shade: bool) -> render::analytic::gpu::cpu::View {
+fn twin(
+    s: &FrameScene,
+    tables: &EnvTables,
+    params: &AnalyticParams,
+    shade: bool,
+) -> render::analytic::gpu::analytic_twin::View {
     let prepared = Prepared::new(s, &s.views[0], tables, params).unwrap();
     let k = Kernel { prepared: &prepared, env: &tables.words, spec: Specialisation::of(s), shade };
     render_view(&k)

@@ -16,9 +16,9 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use render::device::DeviceChoice;
 use render::env::EnvironmentMap;
 use render::io::LinearImage;
+use render::renderer::DeviceChoice;
 use render::{RenderError, Renderer};
 use study::Method;
 use study::design::Design;

@@ -1,4 +1,4 @@
-//! The GPU tracer (`shaders/tracer.wgsl`) against its f32 CPU twin (`tracer::gpu::cpu`) and
+//! The GPU tracer (`shaders/tracer.wgsl`) against its f32 CPU twin (`shading::gpu::tracer_twin`) and
 //! against the f64 CPU tracer, on small images of the study's own scenes (the design file,
 //! shrunk to 64 x 36), plus the physics tests of `tracer_physics.rs` that have a closed
 //! form (white furnace, motion coverage) and the f32 hard cases. Without a GPU adapter each
@@ -12,8 +12,9 @@ use common::{L, assert_coverage_matches, coverage_scene, flat, furnace_scene, sc
 use glam::DVec3;
 use render::env::EnvironmentMap;
 use render::io::LinearImage;
-use render::tracer::gpu::params::{EnvTables, Specialisation, material_kind};
-use render::tracer::gpu::{GpuTracer, cpu};
+use render::shading::gpu::params::{EnvTables, Specialisation, material_kind};
+use render::shading::gpu::tracer_twin as cpu;
+use render::tracer::gpu::GpuTracer;
 use study::design::Design;
 use study::ids::{StimulusId, View};
 use study::scene::{FrameScene, Material, Shutter};

@@ -43,7 +43,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     let env = render::env::EnvironmentMap::from_lighting(&scene.lighting).map_err(|e| BadInput(e.to_string()))?;
     let renderer = render::Renderer::open(args.device.into(), &env).map_err(|e| match e {
-        render::device::DeviceError::NoGpu(_) => anyhow::Error::new(BadInput(e.to_string())),
+        render::renderer::DeviceError::NoGpu(_) => anyhow::Error::new(BadInput(e.to_string())),
         e => anyhow::Error::new(e),
     })?;
     let started = std::time::Instant::now();

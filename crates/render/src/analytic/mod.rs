@@ -14,7 +14,7 @@
 //! [`gpu`] is the same rasterizer as a WGSL compute kernel (the paper's future work), with
 //! its f32 CPU twin; `render::Renderer` uses it wherever a GPU is open.
 //! [`sphere`] is the exact visibility of the untessellated moving sphere, the closed form the
-//! triangles approximate. [`accuracy`] holds the measurements the tests check and
+//! triangles approximate. [`crate::measure::analytic_accuracy`] holds the measurements the tests check and
 //! `blurlab bench analytic-accuracy` draws (the depth approximation's error histogram of the
 //! paper's Figure 10, the tessellation's coverage error, the contact shadow per speed).
 //!
@@ -22,7 +22,7 @@
 //! temporal midpoint, as the paper specifies, and the floor's interval spans the whole
 //! shutter, so the sphere's moving contact shadow is shaded as it stands mid-shutter: a
 //! sharp dark ellipse where the tracer shows a smear (visible from about 30 deg/s on the
-//! study frame; [`accuracy::contact_shadow_error`], `analysis/analytic/contact-shadow.csv`).
+//! study frame; [`crate::measure::analytic_accuracy::contact_shadow_error`], `analysis/analytic/contact-shadow.csv`).
 //! The triangles move in one straight line per exposure: a sphere that travels its path's
 //! whole wrap length within one shutter is refused ([`check_motion`]) on every device.
 //!
@@ -49,9 +49,9 @@ use study::scene::FrameScene;
 
 use crate::env::EnvironmentMap;
 use crate::io::LinearImage;
-use crate::tracer::camera::CameraRays;
-use crate::tracer::integrator::PathTracer;
-use crate::tracer::material::Shader;
+use crate::shading::camera::CameraRays;
+use crate::shading::integrator::PathTracer;
+use crate::shading::material::Shader;
 use frame::{RasterStats, render_image};
 use geometry::{CameraFrame, scene_triangles};
 use interval::SEARCH_RANGE_OPAQUE;

@@ -15,9 +15,9 @@ use study::seed::mix;
 use super::edge::TriangleSetup;
 use super::geometry::{CameraFrame, SurfaceKind};
 use super::interval::Interval;
-use crate::tracer::integrator::{PathTracer, SphereState};
-use crate::tracer::intersect::{Geometry, Hit, Ray, Surface};
-use crate::tracer::sampler::{PixelSampler, dim};
+use crate::shading::integrator::{PathTracer, SphereState};
+use crate::shading::intersect::{Geometry, Hit, Ray, Surface};
+use crate::shading::sampler::{PixelSampler, dim};
 
 /// What shading needs of a frame and one of its views.
 pub struct Shading<'a> {

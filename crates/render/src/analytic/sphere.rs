@@ -5,7 +5,7 @@
 //! roots of `a t^2 + b t + c` from the cancellation-free solver.
 //!
 //! It is the closed form the rasterizer's tessellated sphere approximates
-//! ([`super::accuracy::tessellation_error`] measures the gap) and the reference against which
+//! ([`crate::measure::analytic_accuracy::tessellation_error`] measures the gap) and the reference against which
 //! the tests judge the time-sampled methods' coverage (tracer, accumulation buffer, filters).
 
 use glam::{DVec2, DVec3};

@@ -170,7 +170,7 @@ impl EnvironmentMap {
     }
 
     /// The look-up and sampling tables, for the GPU tracer's f32 copy of them
-    /// (`tracer::gpu::params::EnvTables`).
+    /// (`shading::gpu::params::EnvTables`).
     pub(crate) fn tables(&self) -> EnvTablesRef<'_> {
         EnvTablesRef {
             width: self.width,

@@ -94,8 +94,9 @@ fn run_gpu(
     opts: &BenchOptions,
     cpu_mean_ms: f64,
 ) -> Result<Value, String> {
-    let ctx = ::gpu::acquire(::gpu::AdapterChoice::HardwareThenSoftware, &crate::tracer::gpu::device::device_request())
-        .map_err(|e| e.to_string())?;
+    let ctx =
+        ::gpu::acquire(::gpu::AdapterChoice::HardwareThenSoftware, &crate::tracer::gpu::tracer_host::device_request())
+            .map_err(|e| e.to_string())?;
     let adapter = ctx.info.short();
     let software = ctx.info.is_software;
     let tracer = crate::tracer::gpu::GpuTracer::new(ctx.clone()).map_err(|e| e.to_string())?;

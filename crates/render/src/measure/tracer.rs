@@ -109,7 +109,7 @@ pub fn peer_sphere(scene: &FrameScene, height: u32) -> PeerSphere {
     let (centre, orientation) = (s.centre_at(t), s.orientation_at(t));
     let distance = (centre - cam.position).length();
     let footprint = distance * (cam.sensor_width / f64::from(cam.width) / cam.focal_length) / s.radius;
-    let shader = crate::tracer::material::Shader::new(&scene.material);
+    let shader = crate::shading::material::Shader::new(&scene.material);
     let (tw, th) = (2 * height, height);
     let mut albedo = crate::io::LinearImage::new(tw, th);
     for y in 0..th {

@@ -13,7 +13,7 @@ use study::scene::FrameScene;
 
 use crate::env::EnvironmentMap;
 use crate::measure::tracer::{BENCH_STIMULUS, BenchError, benchmark_frame, frame_json, full_set_camera_samples};
-use crate::tracer::gpu::params::Specialisation;
+use crate::shading::gpu::params::Specialisation;
 use crate::tracer::gpu::{GpuEnvironment, GpuTracer};
 
 /// Options of [`run_gpu_benchmark`].

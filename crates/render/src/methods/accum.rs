@@ -6,8 +6,8 @@ use study::scene::FrameScene;
 
 use super::tracer::trace;
 use super::{GpuHosts, RenderMethod};
-use crate::device::{DeviceError, Renderer, Submitted, add_seconds};
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
+use crate::renderer::{DeviceError, Renderer, Submitted, add_seconds};
 
 /// The accumulation buffer.
 pub struct Accum;

@@ -8,8 +8,8 @@ use super::tracer::TracerHost;
 use super::{GpuHosts, RenderMethod};
 use crate::analytic::gpu::{GpuAnalytic, GpuAnalyticError};
 use crate::analytic::{AnalyticError, AnalyticParams};
-use crate::device::{DeviceError, Renderer, Submitted};
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
+use crate::renderer::{DeviceError, Renderer, Submitted};
 
 /// The analytic rasterizer.
 pub struct Analytic;

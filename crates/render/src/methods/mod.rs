@@ -1,6 +1,6 @@
 //! The rendering methods behind one contract, [`RenderMethod`]: each method is one file (or
 //! folder) here that says how it renders a frame on the renderer's device and which GPU
-//! state it needs there, and one line of [`register!`]. Its settings (keys, defaults, ranges,
+//! state it needs there, and one line of `register!`. Its settings (keys, defaults, ranges,
 //! cost estimate, cost-sweep knob and report label) are the study model's
 //! (`study::method::NAME`); its algorithms live in the modules named in its file.
 //!
@@ -15,8 +15,8 @@ use study::Method;
 use study::method::MethodSpec;
 use study::scene::FrameScene;
 
-use crate::device::{DeviceError, Renderer, Submitted};
 use crate::method::RenderError;
+use crate::renderer::{DeviceError, Renderer, Submitted};
 
 mod accum;
 mod analytic;

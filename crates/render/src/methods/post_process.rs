@@ -8,11 +8,11 @@ use study::scene::FrameScene;
 
 use super::tracer::trace;
 use super::{GpuHosts, RenderMethod};
-use crate::device::{DeviceError, Renderer, Submitted, add_seconds};
 use crate::filters::{FilterError, FilteredImage, GBuffer, GpuFilters};
 use crate::gbuffer::{FloorMotion, centre_time, gbuffers, instant_scene};
 use crate::io::LinearImage;
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
+use crate::renderer::{DeviceError, Renderer, Submitted, add_seconds};
 
 /// A filter's error: settings it refuses are the design's fault.
 fn filter_error(e: FilterError) -> RenderError {

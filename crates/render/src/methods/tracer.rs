@@ -7,9 +7,9 @@ use study::method::TracerSettings;
 use study::scene::FrameScene;
 
 use super::{GpuHosts, RenderMethod};
-use crate::device::{DeviceError, Renderer, Submitted};
 use crate::io::LinearImage;
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
+use crate::renderer::{DeviceError, Renderer, Submitted};
 use crate::tracer::gpu::{GpuEnvironment, GpuTracer, GpuTracerError};
 
 /// The GPU tracer with the renderer's environment map uploaded.

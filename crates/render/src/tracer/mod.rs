@@ -11,12 +11,7 @@
 //! closed shutter or no motion samples no time dimension (the sphere is placed once), and
 //! a flat material evaluates no texture.
 
-pub mod camera;
 pub mod gpu;
-pub mod integrator;
-pub mod intersect;
-pub mod material;
-pub mod sampler;
 
 use glam::{DQuat, DVec2, DVec3};
 use rayon::prelude::*;
@@ -24,11 +19,11 @@ use study::scene::FrameScene;
 
 use crate::env::EnvironmentMap;
 use crate::io::LinearImage;
-use camera::CameraRays;
-use integrator::{PathTracer, SphereState};
-use intersect::Geometry;
-use material::Shader;
-use sampler::{PixelSampler, dim};
+use crate::shading::camera::CameraRays;
+use crate::shading::integrator::{PathTracer, SphereState};
+use crate::shading::intersect::Geometry;
+use crate::shading::material::Shader;
+use crate::shading::sampler::{PixelSampler, dim};
 
 /// The images of one frame and its sample statistics.
 #[derive(Clone, Debug)]

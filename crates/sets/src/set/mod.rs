@@ -41,10 +41,10 @@ use study::design::{Design, DesignError, Preset};
 use study::fsio::write_atomic;
 use study::manifest::{FrameRecord, Sampling};
 
-use ::render::device::{DeviceChoice, DeviceError};
 use ::render::env::EnvError;
 use ::render::io::IoError;
 use ::render::method::RenderError;
+use ::render::renderer::{DeviceChoice, DeviceError};
 
 /// Why a set could not be rendered.
 #[derive(Debug, thiserror::Error)]

@@ -17,9 +17,9 @@ use super::progress::{Progress, process_cpu_seconds};
 use super::store::{EYES_DIR, SEQUENCE_LOCK, SetFolder, eye_name, io_err, manifest_bytes, remove_temporaries};
 use super::verify::verify_sequence;
 use super::{AtomicWriter, FileWriter, SetError, SetReport, SetRequest, Written, frame_name};
-use ::render::device::{Renderer, Submitted};
 use ::render::env::EnvironmentMap;
 use ::render::io::{LinearImage, encode_exr, encode_png_srgb};
+use ::render::renderer::{Renderer, Submitted};
 
 /// Camera samples of one frame of `id`: the unit of the overall progress bar, since render
 /// time grows linearly with it.

@@ -17,8 +17,8 @@ use crate::set::{
     AtomicWriter, Expected, FileWriter, Progress, SetError, SetFolder, SetRequest, eye_folder, eye_name,
     frame_index_of, io_err, remove_temporaries_of, render_stream,
 };
-use render::device::Renderer;
 use render::env::EnvironmentMap;
+use render::renderer::Renderer;
 
 /// A unit's record (`SEQ/units/frames-FIRST-LAST.json`): the manifest of its frames.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

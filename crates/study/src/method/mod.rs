@@ -7,7 +7,7 @@
 //! [`MethodSettings`]: the keys a design may write for it, their defaults and valid ranges,
 //! what one frame costs (design limits and the shard planner) and the knob the cost sweep
 //! turns with its report label. The renderer's side of a method (CPU reference, WGSL passes,
-//! GPU host) lives in `render::methods::NAME`. The [`methods!`] table below is the one
+//! GPU host) lives in `render::methods::NAME`. The `methods!` table below is the one
 //! place a method is registered in the study model; see `docs/architecture.md` for the
 //! recipe of a new method.
 

@@ -59,7 +59,7 @@ fn gpu_tracer(device: DeviceArg) -> anyhow::Result<Option<render::tracer::gpu::G
         DeviceArg::Auto => gpu::AdapterChoice::HardwareOnly,
         DeviceArg::Gpu => gpu::AdapterChoice::HardwareThenSoftware,
     };
-    match gpu::acquire(adapters, &render::tracer::gpu::device::device_request()) {
+    match gpu::acquire(adapters, &render::tracer::gpu::tracer_host::device_request()) {
         Ok(ctx) => Ok(Some(render::tracer::gpu::GpuTracer::new(ctx)?)),
         Err(_) if matches!(device, DeviceArg::Auto) => Ok(None),
         Err(e) => Err(BadInput(format!("--device gpu: {e}")).into()),

@@ -1,6 +1,6 @@
 //! The analytic rasterizer on the GPU: the kernel `shaders/analytic.wgsl` (one invocation
 //! per pixel, the pixel's interval list in a storage buffer with a fixed budget), its f32 CPU
-//! twin [`cpu`], and the host [`device::GpuAnalytic`].
+//! twin [`analytic_twin`], and the host [`analytic_host::GpuAnalytic`].
 //!
 //! What the kernel reads is prepared here, once per view, by the same code for the GPU and
 //! the twin ([`Prepared::new`]): the tracer kernel's [`FrameParams`] (camera, sphere,
@@ -16,8 +16,8 @@
 //! integral without an event list whose length grows with the square of the budget; shading
 //! uses the tracer kernel's u32 sampler, seeded from the eye's seed and [`ANALYTIC_STREAM`].
 
-pub mod cpu;
-pub mod device;
+pub mod analytic_host;
+pub mod analytic_twin;
 
 use bytemuck::{Pod, Zeroable};
 use study::scene::{EyeView, FrameScene};
@@ -27,9 +27,9 @@ use super::edge::TriangleSetup;
 use super::frame::{bin, tile_bins};
 use super::geometry::{CameraFrame, SurfaceKind, scene_triangles};
 use super::interval::SEARCH_RANGE_OPAQUE;
-use crate::tracer::gpu::params::{EnvTables, FrameParams, ParamsError};
+use crate::shading::gpu::params::{EnvTables, FrameParams, ParamsError};
 
-pub use device::{GpuAnalytic, GpuAnalyticError};
+pub use analytic_host::{GpuAnalytic, GpuAnalyticError};
 
 /// Tile side of the kernel's bins in pixels (`ANALYTIC_TILE` in WGSL): smaller than the CPU
 /// rasterizer's, so a pixel walks fewer triangles (see the kernel on llvmpipe's loop limit).
@@ -70,7 +70,7 @@ pub struct RasterParams {
     /// its `n x n` blocks are output pixels, which own the shading's sample sequences).
     pub supersampling: u32,
     /// Which pass over the band this dispatch is (0 starts every pixel's work; later passes
-    /// resume it): see [`device::GpuAnalytic::render_view`].
+    /// resume it): see [`analytic_host::GpuAnalytic::render_view`].
     pub pass_index: u32,
     /// Steps one pass takes at most per pixel (0: no bound, the whole pixel in one pass).
     pub steps: u32,
@@ -167,7 +167,7 @@ impl Prepared {
         let cam = &view.camera;
         // Texture footprints are the output pixel's, as the tracer filters a pixel's samples.
         let n = params.supersampling.max(1);
-        frame.cam_origin[3] = (crate::tracer::camera::CameraRays::new(cam).pixel_angle * f64::from(n)) as f32;
+        frame.cam_origin[3] = (crate::shading::camera::CameraRays::new(cam).pixel_angle * f64::from(n)) as f32;
         let camera = CameraFrame::new(cam);
         let (width, height) = (cam.width, cam.height);
         let binned = bin(&scene_triangles(scene, &camera, params.tessellation), &camera, width, height);
@@ -240,7 +240,7 @@ mod tests {
 
     #[test]
     fn the_kernel_assembles_and_validates() {
-        let source = device::kernel_source().unwrap();
+        let source = analytic_host::kernel_source().unwrap();
         ::gpu::validate_wgsl("analytic.wgsl", &source).unwrap();
         assert!(source.contains("fn radiance_from(") && source.contains("fn analytic_pixel("));
     }

@@ -1,26 +1,20 @@
 //! The GPU distribution ray tracer: the kernel `shaders/tracer.wgsl` and everything around
 //! it.
 //!
-//! - [`sampler32`]: the u32-only twin of [`super::sampler`] that `shaders/sampler32.wgsl`
-//!   computes bit for bit.
-//! - [`params`]: what the kernel reads (frame parameters, environment tables, batches) and
-//!   its specialisation by pipeline override constants.
-//! - [`cpu`]: the kernel's CPU twin in f32, a Rust function per WGSL function.
-//! - [`device`]: the host side, [`GpuTracer`].
-//! - [`bench`]: `blurlab bench tracer --device gpu`.
+//! - `crate::shading::gpu`: what the kernel reads (frame parameters, environment tables,
+//!   batches, its specialisation by pipeline override constants), the u32 sampler and the
+//!   kernel's f32 twin, shared with the analytic kernel.
+//! - [`tracer_host`]: the host side, [`GpuTracer`].
 //! - [`assembler`]: the WGSL assembler that knows the render crate's shader includes.
 
-pub mod cpu;
-pub mod device;
-pub mod params;
-pub mod sampler32;
+pub mod tracer_host;
 
-pub use device::{GpuEnvironment, GpuFrame, GpuPrefix, GpuTracer, GpuTracerError, PendingFrame};
-pub use params::Specialisation;
+pub use crate::shading::gpu::params::Specialisation;
+pub use tracer_host::{GpuEnvironment, GpuFrame, GpuPrefix, GpuTracer, GpuTracerError, PendingFrame};
 
 use ::gpu::WgslAssembler;
 
-use super::sampler::dim;
+use crate::shading::sampler::dim;
 
 /// The render crate's WGSL include files: `(name, text)`, included with `//! include NAME`.
 pub const INCLUDES: &[(&str, &str)] = &[

@@ -4,10 +4,10 @@
 //! and every WGSL function has a Rust function of the same name and the same operations in
 //! the same order, so GPU and twin agree to rounding, except the 64-bit emulation (`mul64`,
 //! `splitmix64`, `lattice_gradient` and their helpers), where the twin uses u64 itself
-//! ([`crate::tracer::material::lattice_hash`]), and `copysign`, which is `f32::copysign` (`tests/tracer_gpu.rs` holds them to it per pixel). It is also the
+//! ([`crate::shading::material::lattice_hash`]), and `copysign`, which is `f32::copysign` (`tests/tracer_gpu.rs` holds them to it per pixel). It is also the
 //! reference the kernel's f32 numerics are tested against the f64 tracer with.
 //!
-//! The integrator is the CPU tracer's ([`crate::tracer::integrator`]): the same bounce
+//! The integrator is the CPU tracer's ([`crate::shading::integrator`]): the same bounce
 //! structure, MIS, Russian roulette, cone footprints and sampling dimensions, with the u32
 //! sampler of [`super::sampler32`]. What differs is only what f32 and WGSL force:
 //!
@@ -21,7 +21,7 @@
 //!   far below an 8-bit output step and the Monte Carlo noise.
 //! - A sample is finite when none of its channels has an all-ones exponent (WGSL has no
 //!   `isNan`, and comparisons with NaN may be optimised away).
-//! - The noise texture's 64-bit lattice hash is [`crate::tracer::material`]'s, which the
+//! - The noise texture's 64-bit lattice hash is [`crate::shading::material`]'s, which the
 //!   WGSL computes with pairs of u32.
 
 use glam::Vec3;
@@ -31,8 +31,8 @@ use study::scene::FrameScene;
 use super::params::{Accum, Batch, EnvTables, FrameParams, ParamsError, Specialisation, material_kind};
 use super::sampler32::{pixel_seed, sample_1d_bits, sample_2d_bits, to_unit};
 use crate::io::LinearImage;
-use crate::tracer::material::{NOISE_GAIN, grad_dot, lattice_hash};
-use crate::tracer::sampler::dim;
+use crate::shading::material::{NOISE_GAIN, grad_dot, lattice_hash};
+use crate::shading::sampler::dim;
 
 const PI: f32 = std::f32::consts::PI;
 const TAU: f32 = std::f32::consts::TAU;
@@ -440,7 +440,7 @@ fn sample_2d(seed: u32, index: u32, d: u32) -> [f32; 2] {
     sample_2d_bits(seed, index, d).map(to_unit)
 }
 
-/// Radiance along a camera ray (the integrator of `crate::tracer::integrator`, in f32).
+/// Radiance along a camera ray (the integrator of `crate::shading::integrator`, in f32).
 fn radiance(
     p: &FrameParams,
     spec: &Specialisation,

@@ -1,7 +1,7 @@
 //! The CPU twin of `shaders/analytic.wgsl`, in f32: [`analytic_pixel`] is the kernel's entry
 //! point for one pixel, and every WGSL function has a Rust function of the same name with
 //! the same operations in the same order (the tracer's integrator is its own twin,
-//! `crate::tracer::gpu::cpu::radiance_from`). The interval list is a `Vec` instead of a
+//! `crate::shading::gpu::tracer_twin::radiance_from`). The interval list is a `Vec` instead of a
 //! slice of the storage buffer; its length never exceeds the budget plus one, as there.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
@@ -11,12 +11,12 @@ use super::{ANALYTIC_STREAM, GpuInterval, GpuTriangle, PixelStats, Prepared, Ras
 use crate::analytic::interval::ORACLE_H;
 use crate::io::LinearImage;
 use crate::numeric::solve_quadratic_f32;
-use crate::tracer::gpu::cpu::{
+use crate::shading::gpu::params::{FrameParams, Specialisation, material_kind};
+use crate::shading::gpu::sampler32::pixel_seed;
+use crate::shading::gpu::tracer_twin::{
     FLOOR, Hit, SPHERE, SphereAt, cross3, dot3, env_texel, is_finite3, normalize3, radiance_from, sin_cos_turns,
     texel_of, xyz,
 };
-use crate::tracer::gpu::params::{FrameParams, Specialisation, material_kind};
-use crate::tracer::gpu::sampler32::pixel_seed;
 
 /// Disjoint visibility spans of one triangle at most.
 pub const MAX_SPANS: usize = 8;

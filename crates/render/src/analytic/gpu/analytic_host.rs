@@ -21,7 +21,7 @@ use super::{ANALYTIC_STREAM, GpuInterval, PixelStats, Prepared};
 use crate::analytic::frame::RasterStats;
 use crate::analytic::{AnalyticError, AnalyticFrame, AnalyticParams, supersample};
 use crate::io::LinearImage;
-use crate::tracer::gpu::params::{ParamsError, Specialisation};
+use crate::shading::gpu::params::{ParamsError, Specialisation};
 use crate::tracer::gpu::{GpuEnvironment, assembler};
 
 /// The most bytes of interval lists one band uses (64 MiB: a 640-pixel row at a budget of 8

@@ -135,7 +135,7 @@ impl<'env> Renderer<'env> {
             DeviceChoice::Auto => AdapterChoice::HardwareOnly,
             DeviceChoice::Gpu => AdapterChoice::HardwareThenSoftware,
         };
-        let ctx = match gpu::acquire(adapters, &crate::tracer::gpu::device::device_request()) {
+        let ctx = match gpu::acquire(adapters, &crate::tracer::gpu::tracer_host::device_request()) {
             Ok(ctx) => ctx,
             Err(_) if choice == DeviceChoice::Auto => return Ok(Renderer::cpu(env)),
             Err(e) => return Err(DeviceError::NoGpu(e)),

@@ -21,9 +21,9 @@ use gpu::wgpu::util::DeviceExt as _;
 use gpu::{GpuContext, GpuError, GpuInfo, wgpu};
 use study::scene::FrameScene;
 
-use super::params::{Accum, Batch, EnvTables, FrameParams, ParamsError, Specialisation};
 use crate::env::EnvironmentMap;
 use crate::io::LinearImage;
+use crate::shading::gpu::params::{Accum, Batch, EnvTables, FrameParams, ParamsError, Specialisation};
 
 /// Camera samples one dispatch traces at most on a hardware adapter: 2^25.
 pub const SAMPLES_PER_DISPATCH: u64 = 1 << 25;

@@ -1,5 +1,5 @@
 //! The u32-only sampler of the GPU tracer: the padded, Owen-scrambled 2D Sobol sampler of
-//! [`crate::tracer::sampler`] with every operation on u32, because WGSL has no 64-bit
+//! [`crate::shading::sampler`] with every operation on u32, because WGSL has no 64-bit
 //! integers. `shaders/sampler32.wgsl` is its twin and computes the same integer sample
 //! values bit for bit (`tests/sampler32_wgsl.rs`).
 //!
@@ -30,7 +30,7 @@
 
 use study::seed::splitmix64;
 
-use crate::tracer::sampler::{dim, laine_karras};
+use crate::shading::sampler::{dim, laine_karras};
 
 /// The 32-bit seed of an eye: its u64 frame seed through splitmix64, high half xor low half.
 pub fn eye_seed32(eye_seed: u64) -> u32 {
@@ -334,7 +334,7 @@ mod tests {
             indices.push(x);
         }
         for i in indices {
-            assert_eq!(sobol1_reversed(i), crate::tracer::sampler::sobol1_reversed(i), "index {i:#x}");
+            assert_eq!(sobol1_reversed(i), crate::shading::sampler::sobol1_reversed(i), "index {i:#x}");
         }
     }
 

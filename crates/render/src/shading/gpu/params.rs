@@ -2,7 +2,7 @@
 //! parameters ([`FrameParams`], one storage struct, f32 and u32 only), the environment's
 //! tables as one u32 buffer ([`EnvTables`]), a batch of samples ([`Batch`]) and the
 //! kernel's specialisation ([`Specialisation`], its pipeline override constants). The CPU
-//! twin ([`super::cpu`]) reads exactly the same values.
+//! twin ([`super::tracer_twin`]) reads exactly the same values.
 //!
 //! Everything that needs f64 to be right is done here, in f64, and handed over as f32
 //! offsets small enough that f32 keeps them exact to well below a pixel: the sphere's centre
@@ -18,7 +18,7 @@ use study::seed::splitmix64;
 
 use super::sampler32::eye_seed32;
 use crate::env::EnvironmentMap;
-use crate::tracer::camera::CameraRays;
+use crate::shading::camera::CameraRays;
 
 /// Material kinds, the values of the `MATERIAL` override constant.
 pub mod material_kind {
