@@ -149,3 +149,31 @@ fn the_gpu_benchmark_reports_rates_the_adapter_and_the_cpu_beside_it() {
     let projection = &r["full_set_projection"];
     assert!(projection["minutes_nested"].as_f64().unwrap() < projection["minutes_independent"].as_f64().unwrap());
 }
+
+#[test]
+fn a_successful_command_without_a_session_prints_no_error_line() {
+    // Issue 24: without XDG_RUNTIME_DIR, Mesa's device-select layer made libwayland print
+    // `error: XDG_RUNTIME_DIR is invalid or not set in the environment.` twice during every
+    // adapter search, though the command succeeded.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("frame.png");
+    let d = shipped_design();
+    for device in ["auto", "gpu"] {
+        let o = Command::new(blurlab())
+            .args(["render-frame", "--design", d.to_str().unwrap(), "--preset", "quick", "--frame", "5"])
+            .args(["--device", device, "--out", out.to_str().unwrap(), "M3-S3-T5-A1"])
+            .env_remove("XDG_RUNTIME_DIR")
+            .env_remove("NODEVICE_SELECT")
+            .current_dir(repo_root())
+            .output()
+            .expect("running blurlab");
+        if device == "gpu" && !o.status.success() && stderr(&o).contains("no GPU adapter") {
+            gpu::skip_or_fail("a_successful_command_without_a_session_prints_no_error_line", &stderr(&o));
+            continue;
+        }
+        assert!(o.status.success(), "--device {device}: {}", stderr(&o));
+        let alarms: Vec<&str> =
+            std::str::from_utf8(&o.stderr).unwrap().lines().filter(|l| l.contains("error")).collect();
+        assert!(alarms.is_empty(), "--device {device}: {alarms:?}");
+    }
+}

@@ -32,7 +32,25 @@ enum Command {
     Demo(cmd::demo::Args),
 }
 
+/// Keeps a library's false alarm off a successful run. Mesa's Vulkan device-select layer, an
+/// implicit layer of every Vulkan instance on Mesa systems, connects to Wayland to find the
+/// session's default GPU; without `XDG_RUNTIME_DIR` (no session: SSH, containers, CI)
+/// libwayland then prints `error: XDG_RUNTIME_DIR is invalid or not set in the environment.`
+/// twice while blurlab looks for an adapter, and the render goes on fine. Without a session
+/// there is no display to select a GPU by, so the layer is turned off (`NODEVICE_SELECT=1`);
+/// blurlab ranks the adapters itself. A user's own `NODEVICE_SELECT` is left alone.
+fn quiet_device_select_without_a_session() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() && std::env::var_os("NODEVICE_SELECT").is_none() {
+        #[allow(unsafe_code, reason = "set_var is sound here: the first call of main, before any thread")]
+        // SAFETY: no other thread exists yet, so nothing reads the environment concurrently.
+        unsafe {
+            std::env::set_var("NODEVICE_SELECT", "1");
+        }
+    }
+}
+
 fn main() -> std::process::ExitCode {
+    quiet_device_select_without_a_session();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Stimuli(args) => cmd::stimuli::run(&args),
