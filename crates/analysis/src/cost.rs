@@ -107,13 +107,7 @@ pub fn groups_from_report(path: &Path, sweep: &CostSweep) -> Result<Vec<MarkedGr
             for m in g["members"].as_array().into_iter().flatten() {
                 let text = m["id"].as_str().ok_or_else(|| bad(format!("{name}: a group member without an `id`")))?;
                 let id: StimulusId = text.parse().map_err(|e: study::ids::IdError| bad(format!("{name}: {e}")))?;
-                let cell = format!(
-                    "M{}-S{}-T{}{}",
-                    id.material,
-                    id.speed,
-                    id.shutter,
-                    if id.view == study::View::Stereo { "-stereo" } else { "" }
-                );
+                let cell = id.cell().label(id.view);
                 let tracer = id.method.is_none_or(|t| t.kind == Method::Tracer);
                 let row = (cell == sweep.cell && tracer).then(|| level_row(sweep, &rows, id.samples)).flatten();
                 members.push(MarkedMember { id, row });

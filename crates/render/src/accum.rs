@@ -13,7 +13,6 @@ use study::method::AccumSettings;
 use study::scene::FrameScene;
 use study::seed::{mix, splitmix64};
 
-use crate::gbuffer::instant_scene;
 use crate::io::LinearImage;
 
 /// The time of instant `k` of `count` in the shutter `[open, close]`: the centre of its
@@ -40,7 +39,7 @@ pub fn instant_scenes(scene: &FrameScene, spec: &AccumSettings) -> Vec<FrameScen
     let jitter_seed = spec.jittered().then(|| splitmix64(scene.views.first().map_or(0, |v| v.seed)));
     (0..count)
         .map(|k| {
-            let mut instant = instant_scene(scene, instant_time(open, close, k, count, jitter_seed));
+            let mut instant = scene.at_instant(instant_time(open, close, k, count, jitter_seed));
             instant.samples_per_pixel = spp;
             for view in &mut instant.views {
                 view.seed = mix(view.seed, &[u64::from(k), 0xACC]);
@@ -53,21 +52,7 @@ pub fn instant_scenes(scene: &FrameScene, spec: &AccumSettings) -> Vec<FrameScen
 /// The mean of the instants' images, eye by eye (`instants[k][eye]`).
 pub fn average(instants: &[Vec<LinearImage>]) -> Vec<LinearImage> {
     let Some(first) = instants.first() else { return Vec::new() };
-    let scale = 1.0 / instants.len() as f64;
-    (0..first.len())
-        .map(|eye| {
-            let (width, height) = (first[eye].width, first[eye].height);
-            let mut sum = vec![[0.0f64; 3]; first[eye].pixels.len()];
-            for images in instants {
-                for (s, p) in sum.iter_mut().zip(&images[eye].pixels) {
-                    for c in 0..3 {
-                        s[c] += f64::from(p[c]);
-                    }
-                }
-            }
-            LinearImage { width, height, pixels: sum.iter().map(|s| s.map(|v| (v * scale) as f32)).collect() }
-        })
-        .collect()
+    (0..first.len()).map(|eye| LinearImage::mean(&instants.iter().map(|i| &i[eye]).collect::<Vec<_>>())).collect()
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@
 //! texture and noise around it (a smooth disc sliding with the sphere).
 
 use glam::{DVec2, DVec3};
-use study::scene::{Camera, FrameScene, Shutter};
+use study::scene::{Camera, FrameScene};
 
 use crate::filters::{GBuffer, SKY_DEPTH};
 use crate::io::LinearImage;
@@ -36,17 +36,6 @@ pub enum FloorMotion {
     Surface,
     /// The sphere's translation where the sphere's shadow falls ([`SHADOW_FORM_FACTOR`]).
     Shadow,
-}
-
-/// The centre instant of a frame's shutter.
-pub fn centre_time(shutter: &Shutter) -> f64 {
-    0.5 * (shutter.open + shutter.close)
-}
-
-/// `scene` with an instantaneous shutter at time `t` (what the tracer renders for one instant
-/// of an accumulation buffer or for a G-buffer).
-pub fn instant_scene(scene: &FrameScene, t: f64) -> FrameScene {
-    FrameScene { shutter: Shutter { open: t, close: t }, ..scene.clone() }
 }
 
 /// What a pixel's centre sees at one instant.
@@ -179,8 +168,8 @@ pub fn shadow_form_factor(p: DVec3, n: DVec3, c: DVec3, r: f64) -> f64 {
 /// rendered at that instant (one image per eye, in the scene's order), the floor moving as
 /// `floor` says.
 pub fn gbuffers(scene: &FrameScene, eyes: Vec<LinearImage>, floor: FloorMotion) -> Vec<GBuffer> {
-    let time = centre_time(&scene.shutter);
-    let exposure = if scene.needs_time_sampling() { scene.shutter.close - scene.shutter.open } else { 0.0 };
+    let time = scene.shutter.centre();
+    let exposure = if scene.needs_time_sampling() { scene.shutter.duration() } else { 0.0 };
     scene
         .views
         .iter()

@@ -42,6 +42,27 @@ pub struct LinearImage {
 }
 
 impl LinearImage {
+    /// The pixel-wise mean of `images` (all of the first one's size), summed in f64 and
+    /// scaled by `1 / n`; an empty list gives an empty image. For two images it equals
+    /// `0.5 * (a + b)` in f32 (the halving is exact) except where that sum overflows.
+    pub fn mean(images: &[&LinearImage]) -> LinearImage {
+        let Some(first) = images.first() else { return LinearImage::new(0, 0) };
+        let scale = 1.0 / images.len() as f64;
+        let mut sum = vec![[0.0f64; 3]; first.pixels.len()];
+        for image in images {
+            for (s, p) in sum.iter_mut().zip(&image.pixels) {
+                for c in 0..3 {
+                    s[c] += f64::from(p[c]);
+                }
+            }
+        }
+        LinearImage {
+            width: first.width,
+            height: first.height,
+            pixels: sum.iter().map(|s| s.map(|v| (v * scale) as f32)).collect(),
+        }
+    }
+
     /// A black image.
     pub fn new(width: u32, height: u32) -> Self {
         LinearImage { width, height, pixels: vec![[0.0; 3]; width as usize * height as usize] }
@@ -246,6 +267,22 @@ pub fn decode_hdr(bytes: &[u8]) -> Result<LinearImage, IoError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_mean_of_images_is_pixel_wise_and_halves_exactly() {
+        let a = LinearImage { width: 2, height: 1, pixels: vec![[1.0, 2.0, 3.0], [0.1, 0.2, 0.3]] };
+        let b = LinearImage { width: 2, height: 1, pixels: vec![[3.0, 2.0, 1.0], [0.7, 0.5, 0.3]] };
+        let c = LinearImage { width: 2, height: 1, pixels: vec![[2.0, 5.0, 2.0], [0.1, 0.2, 0.3]] };
+        let two = LinearImage::mean(&[&a, &b]);
+        for (m, (p, q)) in two.pixels.iter().zip(a.pixels.iter().zip(&b.pixels)) {
+            for k in 0..3 {
+                assert_eq!(m[k], 0.5 * (p[k] + q[k]));
+            }
+        }
+        assert_eq!(LinearImage::mean(&[&a, &b, &c]).pixels[0], [2.0, 3.0, 2.0]);
+        assert_eq!(LinearImage::mean(&[&a]), a);
+        assert_eq!(LinearImage::mean(&[]).pixels.len(), 0);
+    }
 
     fn gradient(w: u32, h: u32) -> LinearImage {
         let mut img = LinearImage::new(w, h);

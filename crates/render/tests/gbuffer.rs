@@ -8,7 +8,7 @@ mod common;
 use common::{flat, scene, study_camera, study_frame, uniform};
 use glam::{DVec2, DVec3};
 use render::filters::SKY_DEPTH;
-use render::gbuffer::{FloorMotion, MAX_VELOCITY, MOTION_NEAR, centre_time, pixel_geometry, screen_motion};
+use render::gbuffer::{FloorMotion, MAX_VELOCITY, MOTION_NEAR, pixel_geometry, screen_motion};
 
 #[test]
 fn a_point_moving_past_the_near_plane_keeps_its_clipped_motion() {
@@ -67,7 +67,7 @@ fn at_extreme_speed_every_moving_pixel_of_the_study_frame_keeps_a_velocity() {
     // stretched segment of a pixel's point reaches behind the camera, the velocity was zero.
     let s = study_frame(160, 90, 1, 1.0);
     let cam = &s.views[0].camera;
-    let t = centre_time(&s.shutter);
+    let t = s.shutter.centre();
     let exposure = s.shutter.close - s.shutter.open;
     let stretch = 78648.9 / 15.0;
     let (mut moving, mut past_the_camera) = (0, 0);
@@ -106,7 +106,7 @@ fn the_filters_blur_a_sphere_whose_motion_passes_the_camera() {
     s.sphere.velocity = DVec3::new(0.0, 0.0, 500.0);
     s.shutter = study::scene::Shutter { open: -1.0 / 60.0, close: 1.0 / 60.0 };
     let cam = s.views[0].camera.clone();
-    let t = centre_time(&s.shutter);
+    let t = s.shutter.centre();
     let eye = render::io::LinearImage {
         width: w,
         height: h,

@@ -12,7 +12,7 @@ use glam::{DVec2, DVec3};
 use render::Renderer;
 use render::env::EnvironmentMap;
 use render::filters::SKY_DEPTH;
-use render::gbuffer::{FloorMotion, SHADOW_FORM_FACTOR, centre_time, gbuffers, pixel_geometry, shadow_form_factor};
+use render::gbuffer::{FloorMotion, SHADOW_FORM_FACTOR, gbuffers, pixel_geometry, shadow_form_factor};
 use render::io::LinearImage;
 use study::Method;
 use study::method::MethodSpec;
@@ -38,7 +38,7 @@ fn gbuffer_velocity_is_the_projected_displacement_of_the_visible_material_point(
     let s = rolling_scene(160, 90);
     let cam = &s.views[0].camera;
     let exposure = s.shutter.close - s.shutter.open;
-    let (t, sphere) = (centre_time(&s.shutter), &s.sphere);
+    let (t, sphere) = (s.shutter.centre(), &s.sphere);
     let v_centre = (cam.project(sphere.centre_at(t) + sphere.velocity * (exposure / 2.0)).unwrap()
         - cam.project(sphere.centre_at(t) - sphere.velocity * (exposure / 2.0)).unwrap())
     .x;
@@ -74,7 +74,7 @@ fn gbuffer_velocity_is_the_projected_displacement_of_the_visible_material_point(
 fn gbuffer_floor_is_static_and_moves_in_the_shadow_region_only_when_asked() {
     let s = rolling_scene(160, 90);
     let cam = &s.views[0].camera;
-    let t = centre_time(&s.shutter);
+    let t = s.shutter.centre();
     let exposure = s.shutter.close - s.shutter.open;
     let centre = s.sphere.centre_at(t);
     let v_shadow = {
@@ -319,7 +319,7 @@ fn the_filters_leave_the_static_floor_unblurred_unless_the_shadow_motion_is_aske
     // pixels change from the traced centre instant, and none of them far below the sphere.
     let mut s = rolling_scene(96, 54);
     s.samples_per_pixel = 4;
-    let centre = render::gbuffer::instant_scene(&s, centre_time(&s.shutter));
+    let centre = s.at_instant(s.shutter.centre());
     let traced = render_with(&MethodSpec::of(Method::Tracer), &centre).image;
     for kind in [Method::Mcguire, Method::Guertin] {
         let changed = |spec: &MethodSpec| {

@@ -9,7 +9,7 @@ use common::{L, flat, scene, study_camera, uniform};
 use glam::DVec3;
 use render::env::EnvironmentMap;
 use render::filters::{GuertinParams, McGuireParams};
-use render::gbuffer::{FloorMotion, centre_time, gbuffers, instant_scene};
+use render::gbuffer::{FloorMotion, gbuffers};
 use render::io::LinearImage;
 use render::method::filter_seed;
 use render::{DeviceChoice, Renderer};
@@ -45,7 +45,7 @@ fn gpu_filters_over_the_gpu_gbuffer_equal_their_cpu_twins() {
     let Some(renderer) = gpu_renderer("gpu_filters_over_the_gpu_gbuffer_equal_their_cpu_twins", &env) else {
         return;
     };
-    let centre = instant_scene(&s, centre_time(&s.shutter));
+    let centre = s.at_instant(s.shutter.centre());
     let traced = renderer.render(&MethodSpec::of(Method::Tracer), &centre).unwrap();
     let g = gbuffers(&s, split(&traced.image), FloorMotion::Surface).remove(0);
     assert!(g.velocity.iter().any(|v| v[0] > 1.0), "the sphere moves in the G-buffer");

@@ -11,6 +11,7 @@
 //! ends), so a stall never shifts later frames, it drops them.
 
 use study::response::Task;
+use study::stats::median;
 
 /// One frame put on screen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -207,25 +208,19 @@ pub const PLAUSIBLE_REFRESH_HZ: std::ops::RangeInclusive<f64> = 23.0..=500.0;
 /// Largest [`RefreshEstimate::spread`] of a window locked to the display's refresh.
 pub const MAX_REFRESH_SPREAD: f64 = 0.1;
 
-fn median(values: &mut [f64]) -> f64 {
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    if n % 2 == 1 { values[n / 2] } else { 0.5 * (values[n / 2 - 1] + values[n / 2]) }
-}
-
 /// Estimates the refresh interval from present times (seconds, increasing) as the median of
 /// the frame-to-frame intervals, so a few stalls (a missed refresh doubles an interval) or
 /// doubled presents do not move it. `None` with fewer than [`MIN_REFRESH_INTERVALS`] positive
 /// intervals.
 pub fn estimate_refresh(times_s: &[f64]) -> Option<RefreshEstimate> {
-    let mut d: Vec<f64> =
+    let d: Vec<f64> =
         times_s.windows(2).map(|w| (w[1] - w[0]) * 1000.0).filter(|x| x.is_finite() && *x > 0.0).collect();
     if d.len() < MIN_REFRESH_INTERVALS {
         return None;
     }
-    let m = median(&mut d);
-    let mut dev: Vec<f64> = d.iter().map(|x| (x - m).abs()).collect();
-    let mad = median(&mut dev);
+    let m = median(&d);
+    let dev: Vec<f64> = d.iter().map(|x| (x - m).abs()).collect();
+    let mad = median(&dev);
     Some(RefreshEstimate { interval_ms: m, intervals: d.len(), spread: mad / m })
 }
 

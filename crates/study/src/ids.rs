@@ -167,11 +167,41 @@ impl StimulusId {
     pub fn with_view(self, view: View) -> Self {
         Self { view, ..self }
     }
+
+    /// Its material, speed and shutter levels.
+    pub fn cell(&self) -> Cell {
+        Cell { material: self.material, speed: self.speed, shutter: self.shutter }
+    }
+}
+
+/// A cell of the design: the material, speed and shutter levels within which render
+/// settings (samples, methods) are compared; `M3-S3-T5` as text.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Cell {
+    /// M level, 1-based.
+    pub material: u8,
+    /// S level, 1-based.
+    pub speed: u8,
+    /// T level, 1-based.
+    pub shutter: u8,
+}
+
+impl Cell {
+    /// `M3-S3-T5`, with `-stereo` for the stereo view (as ids end).
+    pub fn label(self, view: View) -> String {
+        if view == View::Stereo { format!("{self}-stereo") } else { self.to_string() }
+    }
+}
+
+impl fmt::Display for Cell {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "M{}-S{}-T{}", self.material, self.speed, self.shutter)
+    }
 }
 
 impl fmt::Display for StimulusId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "M{}-S{}-T{}-A{}", self.material, self.speed, self.shutter, self.samples)?;
+        write!(f, "{}-A{}", self.cell(), self.samples)?;
         if let Some(method) = self.method {
             write!(f, "-{method}")?;
         }
@@ -244,6 +274,18 @@ impl<'de> Deserialize<'de> for StimulusId {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_ids_cell_is_its_material_speed_and_shutter() {
+        let id: StimulusId = "M3-S2-T5-A4-stereo".parse().unwrap();
+        let cell = id.cell();
+        assert_eq!(cell, Cell { material: 3, speed: 2, shutter: 5 });
+        assert_eq!(
+            (cell.to_string(), cell.label(View::Mono), cell.label(View::Stereo)),
+            ("M3-S2-T5".to_owned(), "M3-S2-T5".to_owned(), "M3-S2-T5-stereo".to_owned())
+        );
+        assert!(id.to_string().starts_with(&cell.to_string()));
+    }
 
     #[test]
     fn round_trips_mono_and_stereo() {

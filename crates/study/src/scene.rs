@@ -300,6 +300,21 @@ impl Shutter {
         self.close > self.open
     }
 
+    /// How long the shutter is open, seconds (0 for an instantaneous exposure).
+    pub fn duration(&self) -> f64 {
+        (self.close - self.open).max(0.0)
+    }
+
+    /// The closing time, never before the opening (a shutter given backwards is closed).
+    pub fn end(&self) -> f64 {
+        self.close.max(self.open)
+    }
+
+    /// The centre instant of the exposure.
+    pub fn centre(&self) -> f64 {
+        0.5 * (self.open + self.close)
+    }
+
     /// The time at fraction `u` in [0, 1] of the interval (box shutter filter).
     pub fn time_at(&self, u: f64) -> f64 {
         if self.is_open_interval() { self.open + (self.close - self.open) * u } else { self.open }
@@ -380,6 +395,12 @@ impl FrameScene {
         self.shutter.is_open_interval() && self.sphere.speed() > 0.0
     }
 
+    /// This frame with an instantaneous shutter at time `t` (what the tracer renders for one
+    /// instant of an accumulation buffer or for a G-buffer).
+    pub fn at_instant(&self, t: f64) -> FrameScene {
+        FrameScene { shutter: Shutter { open: t, close: t }, ..self.clone() }
+    }
+
     /// Width of the composed image (eyes side by side).
     pub fn composed_width(&self) -> u32 {
         self.views.iter().map(|v| v.camera.width).sum()
@@ -394,6 +415,20 @@ impl FrameScene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_shutters_duration_centre_and_end() {
+        let open = Shutter { open: 1.0, close: 1.25 };
+        assert_eq!((open.duration(), open.centre(), open.end()), (0.25, 1.125, 1.25));
+        let instant = Shutter { open: 2.0, close: 2.0 };
+        assert_eq!((instant.duration(), instant.centre(), instant.end()), (0.0, 2.0, 2.0));
+        // Given backwards, a shutter is closed: no duration, and it ends where it opens.
+        let backwards = Shutter { open: 3.0, close: 2.5 };
+        assert_eq!((backwards.duration(), backwards.end()), (0.0, 3.0));
+        for s in [open, instant, backwards] {
+            assert_eq!(s.duration(), s.end() - s.open);
+        }
+    }
 
     fn sphere() -> RollingSphere {
         RollingSphere {

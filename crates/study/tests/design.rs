@@ -411,3 +411,26 @@ fn sizes_beyond_the_limits_are_errors_naming_key_and_limit() {
         assert!(msg.contains(needle), "{msg}");
     }
 }
+
+#[test]
+fn a_preset_gives_each_ids_samples_and_a_scene_its_instants() {
+    let d = shipped();
+    let quick = d.preset("quick").unwrap();
+    for a in 1..=5u8 {
+        let id: StimulusId = format!("M3-S3-T5-A{a}").parse().unwrap();
+        assert_eq!(quick.samples_of(&id), Some(quick.samples_per_pixel[usize::from(a - 1)]));
+        assert_eq!(d.frame_scene_with(&quick, &id, 2).unwrap().samples_per_pixel, quick.samples_of(&id).unwrap());
+    }
+    let mut short = quick.clone();
+    short.samples_per_pixel.truncate(2);
+    let id: StimulusId = "M3-S3-T5-A3".parse().unwrap();
+    assert_eq!(short.samples_of(&id), None);
+    let e = d.frame_scene_with(&short, &id, 2).unwrap_err().to_string();
+    assert!(e.contains("has 2 sample levels"), "{e}");
+    let scene = d.frame_scene_with(&quick, &id, 2).unwrap();
+    let t = scene.shutter.centre();
+    let instant = scene.at_instant(t);
+    assert_eq!((instant.shutter.open, instant.shutter.close), (t, t));
+    assert!(!instant.needs_time_sampling() && scene.needs_time_sampling());
+    assert_eq!(instant.views, scene.views);
+}

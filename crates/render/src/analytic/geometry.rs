@@ -250,10 +250,10 @@ pub fn sphere_triangles(
     paths: VertexPaths,
 ) -> Vec<MovingTriangle> {
     let sphere = &scene.sphere;
-    let (open, close) = (scene.shutter.open, scene.shutter.close.max(scene.shutter.open));
+    let (open, close) = (scene.shutter.open, scene.shutter.end());
     let c_open = sphere.centre_at(open);
     // The centre moves in a straight line within one exposure (no wrap inside a shutter).
-    let c_close = c_open + sphere.velocity * (close - open);
+    let c_close = c_open + sphere.velocity * scene.shutter.duration();
     let q_open = sphere.orientation_at(open);
     let q_close = match paths {
         VertexPaths::Translated => q_open,

@@ -91,7 +91,7 @@ pub fn check_motion(scene: &FrameScene) -> Result<(), AnalyticError> {
     if !scene.needs_time_sampling() {
         return Ok(());
     }
-    let duration = scene.shutter.close.max(scene.shutter.open) - scene.shutter.open;
+    let duration = scene.shutter.duration();
     let travel = scene.sphere.velocity.length() * duration;
     if travel >= wrap || !travel.is_finite() {
         return Err(AnalyticError::WrapsOver { travel, wrap });

@@ -54,9 +54,10 @@ impl<'a> Shading<'a> {
         pixel_angle: f64,
         lighting_samples: u32,
     ) -> Self {
-        let (open, close) = (scene.shutter.open, scene.shutter.close.max(scene.shutter.open));
+        let open = scene.shutter.open;
         let c0 = scene.sphere.centre_at(open);
-        let motion = if scene.needs_time_sampling() { scene.sphere.velocity * (close - open) } else { DVec3::ZERO };
+        let motion =
+            if scene.needs_time_sampling() { scene.sphere.velocity * scene.shutter.duration() } else { DVec3::ZERO };
         Shading {
             tracer,
             scene,

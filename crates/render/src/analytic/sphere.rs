@@ -27,9 +27,9 @@ pub struct MovingSphere {
 impl MovingSphere {
     /// The sphere of `scene` over its shutter (a zero-length shutter: not moving).
     pub fn of(scene: &FrameScene) -> Self {
-        let (open, close) = (scene.shutter.open, scene.shutter.close.max(scene.shutter.open));
-        let travel = if scene.needs_time_sampling() { scene.sphere.velocity * (close - open) } else { DVec3::ZERO };
-        MovingSphere { centre: scene.sphere.centre_at(open), travel, radius: scene.sphere.radius }
+        let travel =
+            if scene.needs_time_sampling() { scene.sphere.velocity * scene.shutter.duration() } else { DVec3::ZERO };
+        MovingSphere { centre: scene.sphere.centre_at(scene.shutter.open), travel, radius: scene.sphere.radius }
     }
 
     /// The span of normalised shutter time, within `[0, 1]`, in which the ray from `origin`

@@ -182,8 +182,8 @@ pub fn shadow_region(scene: &FrameScene) -> Vec<usize> {
     let cam = &view.camera;
     let camera = CameraFrame::new(cam);
     let s = &scene.sphere;
-    let (open, close) = (scene.shutter.open, scene.shutter.close.max(scene.shutter.open));
-    let (c0, c1) = (s.centre_at(open), s.centre_at(open) + s.velocity * (close - open));
+    let open = scene.shutter.open;
+    let (c0, c1) = (s.centre_at(open), s.centre_at(open) + s.velocity * scene.shutter.duration());
     let floor = scene.floor.height;
     let mut out = Vec::new();
     for y in 0..cam.height {
@@ -249,7 +249,7 @@ pub fn contact_shadow_error(
         t_min = t_min.min(t);
         a_min = a_min.min(a);
     }
-    let duration = scene.shutter.close.max(scene.shutter.open) - scene.shutter.open;
+    let duration = scene.shutter.duration();
     ShadowError {
         degrees_per_second,
         travel_radii: scene.sphere.velocity.length() * duration / scene.sphere.radius,

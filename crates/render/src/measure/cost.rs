@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 use study::Method;
 use study::cost::{COST_FORMAT, CostPoint, CostReference, CostSweep, point_key};
 use study::design::{Design, Preset};
-use study::ids::{Factor, MethodTag, StimulusId, View};
+use study::ids::{Cell, Factor, MethodTag, StimulusId, View};
 use study::method::{MethodSpec, SweepSetting as Setting};
 use study::scene::FrameScene;
 use study::seed::mix;
@@ -249,7 +249,7 @@ impl Context<'_, '_> {
         let a = self.renderer.render(&tracer, &reseeded(&scene, &[0x5EFA_C057], half))?.image;
         let b = self.renderer.render(&tracer, &reseeded(&scene, &[0x5EFB_C057], half))?.image;
         let wall_seconds = started.elapsed().as_secs_f64();
-        let image = crate::measure::tracer::average(&a, &b);
+        let image = LinearImage::mean(&[&a, &b]);
         // The mean of two independent halves has half the variance of one: its standard
         // error is half the RMS difference of the halves.
         let standard_error = 0.5 * display_rmse(&a, &b, &scene.exposure);
@@ -398,7 +398,7 @@ pub fn run_cost(
     let methods: Vec<Method> = if request.methods.is_empty() { Method::ALL.to_vec() } else { request.methods.clone() };
     let tag = design.method_tags().first().copied();
     let id = StimulusId { material, speed, shutter, samples: 1, method: tag, view };
-    let cell = format!("M{material}-S{speed}-T{shutter}{}", if view == View::Stereo { "-stereo" } else { "" });
+    let cell = Cell { material, speed, shutter }.label(view);
     let identity = Identity {
         format: COST_FORMAT.to_owned(),
         design_sha256: design.sha256.clone(),

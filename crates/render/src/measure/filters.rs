@@ -11,10 +11,11 @@ use std::time::Instant;
 use serde_json::{Value, json};
 use study::design::Design;
 use study::method::{GuertinSettings, McGuireSettings};
+use study::stats::median;
 
 use crate::filters::{GBuffer, GpuFilters, guertin_cpu, mcguire_cpu};
 use crate::filters::{GuertinParams, McGuireParams};
-use crate::gbuffer::{FloorMotion, centre_time, gbuffers, instant_scene};
+use crate::gbuffer::{FloorMotion, gbuffers};
 use crate::method::filter_seed;
 
 /// What to measure.
@@ -55,14 +56,9 @@ pub fn benchmark_gbuffer(design: &Design, width: u32, height: u32) -> Result<GBu
         (camera.width, camera.height) = (width, height);
     }
     let env = crate::env::EnvironmentMap::from_lighting(&scene.lighting)?;
-    let centre = instant_scene(&scene, centre_time(&scene.shutter));
+    let centre = scene.at_instant(scene.shutter.centre());
     let eyes = crate::tracer::render_frame(&centre, &env).eyes;
     Ok(gbuffers(&scene, eyes, FloorMotion::default()).remove(0))
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    if v.is_empty() { f64::NAN } else { v[v.len() / 2] }
 }
 
 /// Times both filters on `g`, on `filters`' device when given and by their CPU twins.
@@ -84,7 +80,7 @@ pub fn run_filter_timing(
             std::hint::black_box(run_cpu());
             cpu.push(started.elapsed().as_secs_f64() * 1e3);
         }
-        let cpu_ms = median(cpu);
+        let cpu_ms = median(&cpu);
         let mut entry = json!({ "cpu_twin_ms": cpu_ms, "cpu_rounds": opts.cpu_rounds.max(1) });
         if let Some(f) = filters {
             let (mut gpu_ms, mut wall_ms, mut source) = (Vec::new(), Vec::new(), None);
@@ -98,11 +94,11 @@ pub fn run_filter_timing(
                     source = Some(format!("{:?}", out.timing_source));
                 }
             }
-            let gpu_median = median(gpu_ms.clone());
+            let gpu_median = median(&gpu_ms);
             entry["gpu_ms_median"] = json!(gpu_median);
             entry["gpu_ms_best"] = json!(gpu_ms.iter().copied().fold(f64::INFINITY, f64::min));
             entry["gpu_timing_source"] = json!(source);
-            entry["wall_ms_median_with_transfers"] = json!(median(wall_ms));
+            entry["wall_ms_median_with_transfers"] = json!(median(&wall_ms));
             entry["gpu_over_cpu_speedup"] = json!(cpu_ms / gpu_median);
         }
         results.insert(name.to_owned(), entry);

@@ -16,8 +16,9 @@ use std::time::Instant;
 
 use serde_json::{Value, json};
 use study::Method;
+use study::cost::psnr;
 use study::design::{Design, Preset};
-use study::ids::{Factor, StimulusId, View};
+use study::ids::{Cell, Factor, StimulusId, View};
 use study::method::MethodSpec;
 use study::scene::{Exposure, FrameScene};
 use study::seed::mix;
@@ -64,11 +65,6 @@ pub fn display_rmse(a: &LinearImage, b: &LinearImage, exposure: &Exposure) -> f6
         .flat_map(|(p, q)| (0..3).map(move |c| (display_value(p[c], exposure) - display_value(q[c], exposure)).powi(2)))
         .sum();
     (sum / (3 * a.pixels.len().max(1)) as f64).sqrt()
-}
-
-/// PSNR in dB of a display RMSE with peak 1 (infinite for identical images).
-pub fn psnr(rmse: f64) -> f64 {
-    -20.0 * rmse.log10()
 }
 
 fn timed(
@@ -143,7 +139,7 @@ pub fn run_quality(
         let (ref_a, ref_seconds, _) = timed(renderer, &tracer, &reseeded(&base, 0x5EFA, half))?;
         let (ref_b, _, _) = timed(renderer, &tracer, &reseeded(&base, 0x5EFB, half))?;
         // The mean of two independent halves; their difference estimates its noise.
-        let reference = crate::measure::tracer::average(&ref_a, &ref_b);
+        let reference = LinearImage::mean(&[&ref_a, &ref_b]);
         let reference_noise = 0.5 * ref_a.rms_difference(&ref_b);
         let exposure = base.exposure;
         let mut methods = serde_json::Map::new();
@@ -169,7 +165,7 @@ pub fn run_quality(
             );
         }
         let mut row = json!({
-            "cell": format!("M{material}-S{speed}-T{shutter}"),
+            "cell": Cell { material, speed, shutter }.to_string(),
             "samples_per_pixel": base.samples_per_pixel,
             "moving_in_shutter": base.needs_time_sampling(),
             "reference_seconds": ref_seconds * 2.0,

@@ -194,17 +194,6 @@ fn mean_rgb(images: &[&LinearImage]) -> [f64; 3] {
     })
 }
 
-/// The mean of two images of one size, pixel by pixel.
-pub fn average(a: &LinearImage, b: &LinearImage) -> LinearImage {
-    let pixels = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .map(|(p, q)| [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])])
-        .collect();
-    LinearImage { width: a.width, height: a.height, pixels }
-}
-
 /// What the benchmark ran on: cores, rayon threads, CPU model, load at the start.
 pub fn machine_json() -> serde_json::Value {
     let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
@@ -360,8 +349,8 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
         };
         let (ma, mb) = (load("mitsuba-seed1.exr")?, load("mitsuba-seed2.exr")?);
         let their_noise = rms_noise(&ma, &mb);
-        let ours_avg = average(&static_a.image, &static_b.image);
-        let theirs_avg = average(&ma, &mb);
+        let ours_avg = LinearImage::mean(&[&static_a.image, &static_b.image]);
+        let theirs_avg = LinearImage::mean(&[&ma, &mb]);
         // Agreement of the two renderers' images (includes both noises).
         let image_rms_difference = ours_avg.rms_difference(&theirs_avg);
         result["mitsuba"] = json!({

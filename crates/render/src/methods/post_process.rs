@@ -9,7 +9,7 @@ use study::scene::FrameScene;
 use super::tracer::trace;
 use super::{GpuHosts, RenderMethod};
 use crate::filters::{FilterError, FilteredImage, GBuffer, GpuFilters};
-use crate::gbuffer::{FloorMotion, centre_time, gbuffers, instant_scene};
+use crate::gbuffer::{FloorMotion, gbuffers};
 use crate::io::LinearImage;
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
 use crate::renderer::{DeviceError, Renderer, Submitted, add_seconds};
@@ -90,7 +90,7 @@ fn render_filtered(
     floor: FloorMotion,
     filter: impl Fn(&GBuffer, u32, Option<&GpuFilters>) -> Result<Filtered, FilterError>,
 ) -> Result<RenderedFrame, RenderError> {
-    let centre = instant_scene(scene, centre_time(&scene.shutter));
+    let centre = scene.at_instant(scene.shutter.centre());
     let traced = trace(renderer, &centre)?;
     let mut gpu_seconds = traced.gpu_seconds;
     let mut nonfinite_samples = traced.nonfinite_samples;

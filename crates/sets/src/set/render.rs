@@ -25,7 +25,7 @@ use ::render::renderer::{Renderer, Submitted};
 /// time grows linearly with it.
 pub(crate) fn frame_cost(preset: &Preset, id: &StimulusId) -> u64 {
     let eyes = study::Eye::of_view(id.view).len() as u64;
-    let spp = u64::from(preset.samples_per_pixel[usize::from(id.samples - 1)]);
+    let spp = u64::from(preset.samples_of(id).unwrap_or(1));
     u64::from(preset.width) * u64::from(preset.height) * eyes * spp
 }
 
@@ -237,7 +237,7 @@ pub(crate) fn render_stream(
 ) -> Result<Vec<SequenceManifest>, SetError> {
     let (design, preset, exr) = (request.design, &request.preset, request.exr);
     let method = request.method_of(&members[0])?;
-    let spp_of = |id: &StimulusId| preset.samples_per_pixel[usize::from(id.samples - 1)];
+    let spp_of = |id: &StimulusId| preset.samples_of(id).unwrap_or(1);
     let spps: Vec<u32> = members.iter().map(spp_of).collect();
     let stream_spp = spps.iter().copied().max().unwrap_or(0);
     // A nested stream is seeded as the design's highest sample level, whichever levels

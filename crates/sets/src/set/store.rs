@@ -192,7 +192,7 @@ impl<'a> SetFolder<'a> {
         for f in self.scan()? {
             let m = &f.manifest;
             let eyes = study::Eye::of_view(m.id.view).len() as u32;
-            let spp = self.preset.samples_per_pixel.get(usize::from(m.id.samples).wrapping_sub(1)).copied();
+            let spp = self.preset.samples_of(&m.id);
             let fits = Some(m.samples_per_pixel) == spp
                 && m.width == self.preset.width * eyes
                 && m.height == self.preset.height

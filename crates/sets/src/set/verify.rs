@@ -57,7 +57,7 @@ impl Expected<'_> {
     /// Why `m`, in `folder`, is not what is expected (`None`: it is, and its files verify).
     pub(crate) fn why_not(&self, folder: &Path, m: &SequenceManifest) -> Option<String> {
         let (design, preset, id) = (self.design, self.preset, self.id);
-        let spp = preset.samples_per_pixel.get(usize::from(id.samples).wrapping_sub(1)).copied();
+        let spp = preset.samples_of(id);
         let eyes = if self.eye.is_some() { 1 } else { study::Eye::of_view(id.view).len() as u32 };
         let checks: [(bool, String); 9] = [
             (m.id == *id, format!("id {} (expected {id})", m.id)),

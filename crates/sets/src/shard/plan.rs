@@ -100,11 +100,7 @@ impl Plan {
         let preset = &request.preset;
         let mut pieces = Vec::new();
         for members in streams(&request.ids, request.sampling) {
-            let spp = members
-                .iter()
-                .map(|id| preset.samples_per_pixel.get(usize::from(id.samples).wrapping_sub(1)).copied().unwrap_or(1))
-                .max()
-                .unwrap_or(1);
+            let spp = members.iter().map(|id| preset.samples_of(id).unwrap_or(1)).max().unwrap_or(1);
             let pixels = u64::from(preset.width) * u64::from(preset.height);
             let per_frame = pixels * request.method_of(&members[0])?.samples_cost(spp);
             match Eye::of_view(members[0].view) {

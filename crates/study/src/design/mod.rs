@@ -106,6 +106,13 @@ pub struct Preset {
     pub samples_per_pixel: Vec<u32>,
 }
 
+impl Preset {
+    /// Samples per pixel of `id`'s A level (`None` for a level the preset does not have).
+    pub fn samples_of(&self, id: &StimulusId) -> Option<u32> {
+        self.samples_per_pixel.get(usize::from(id.samples).wrapping_sub(1)).copied()
+    }
+}
+
 /// Which views to list or render.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Views {

@@ -156,7 +156,13 @@ impl Design {
                 .material_of(usize::from(id.material - 1), &s.factors.material[usize::from(id.material - 1)])?,
             floor: Floor { height: s.floor.height, albedo: s.floor.albedo },
             lighting: self.lighting.clone(),
-            samples_per_pixel: preset.samples_per_pixel[usize::from(id.samples - 1)],
+            samples_per_pixel: preset.samples_of(id).ok_or_else(|| {
+                self.request(format!(
+                    "stimulus {id}: the preset `{}` has {} sample levels",
+                    preset.name,
+                    preset.samples_per_pixel.len()
+                ))
+            })?,
             integrator: Integrator {
                 max_bounces: s.integrator.max_bounces,
                 russian_roulette_from: s.integrator.russian_roulette_from,

@@ -290,7 +290,7 @@ impl FrameParams {
         let rays = CameraRays::new(cam);
         let s = &scene.sphere;
         let open = scene.shutter.open;
-        let duration = if scene.shutter.is_open_interval() { scene.shutter.close - open } else { 0.0 };
+        let duration = scene.shutter.duration();
         let speed = s.speed();
         let centre_open = s.centre_at(open);
         let travel = s.velocity * duration;
