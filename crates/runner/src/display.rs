@@ -282,6 +282,19 @@ pub fn eye_width(view: View, frame_width: u32) -> u32 {
     }
 }
 
+/// Whether frames of `view` shown in `mode` are composed on the GPU when drawn: the stereo
+/// modes that compute new pixels (anaglyph, sbs-half, top-bottom) and row-interleaving,
+/// whose eye per pixel depends on the screen line it lands on (known only when drawn). `mono`
+/// (the left eye) is a crop the CPU does while decoding for less than uploading the other
+/// half costs.
+pub fn composes_on_gpu(mode: DisplayMode, view: View) -> bool {
+    view == View::Stereo
+        && matches!(
+            mode,
+            DisplayMode::Anaglyph | DisplayMode::SbsHalf | DisplayMode::TopBottom | DisplayMode::RowInterleaved
+        )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -310,7 +310,7 @@ pub fn decode_sequence(
 }
 
 /// As [`decode_sequence`], or, `for_gpu`, leaving a display mode the GPU composes
-/// ([`crate::gpu::composes_on_gpu`]) to it: the frames are then decoded as stored and
+/// ([`crate::display::composes_on_gpu`]) to it: the frames are then decoded as stored and
 /// [`Decoded::gpu_transform`] names the mode.
 pub fn decode_sequence_for(
     sequence: &Sequence,
@@ -320,7 +320,7 @@ pub fn decode_sequence_for(
     threads: usize,
 ) -> Result<Decoded, RunnerError> {
     let m = &sequence.manifest;
-    let gpu_transform = (for_gpu && crate::gpu::composes_on_gpu(mode, m.view)).then_some(mode);
+    let gpu_transform = (for_gpu && crate::display::composes_on_gpu(mode, m.view)).then_some(mode);
     let paths = sequence.frame_paths();
     let threads = threads.clamp(1, paths.len().max(1));
     let next = AtomicUsize::new(0);
