@@ -47,7 +47,7 @@ pub struct RenderedFrame {
     pub image: LinearImage,
     /// Radiance samples that were NaN or infinite and were discarded; for the filters, the
     /// tracer's at the shutter's centre plus the G-buffer pixels the filter discarded
-    /// ([`crate::filters::nonfinite_pixels`]).
+    /// ([`crate::methods::post_process::nonfinite_pixels`]).
     pub nonfinite_samples: u64,
     /// Camera samples traced (0 for methods that trace none).
     pub camera_samples: u64,

@@ -13,10 +13,10 @@ use study::method::MethodSpec;
 use study::scene::FrameScene;
 
 use crate::env::EnvironmentMap;
-use crate::filters::FilterError;
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
 use crate::methods::GpuHosts;
-use crate::tracer::gpu::PendingFrame;
+use crate::methods::post_process::FilterError;
+use crate::methods::tracer::PendingFrame;
 
 /// The `--device` of a render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -65,7 +65,7 @@ pub enum DeviceError {
         /// The adapter.
         adapter: String,
         /// Cause.
-        source: crate::tracer::gpu::GpuTracerError,
+        source: crate::methods::tracer::GpuTracerError,
     },
     /// The post-process filters could not be set up on the adapter.
     #[error("GPU filters on {adapter}: {source}")]
@@ -135,7 +135,7 @@ impl<'env> Renderer<'env> {
             DeviceChoice::Auto => AdapterChoice::HardwareOnly,
             DeviceChoice::Gpu => AdapterChoice::HardwareThenSoftware,
         };
-        let ctx = match gpu::acquire(adapters, &crate::tracer::gpu::tracer_host::device_request()) {
+        let ctx = match gpu::acquire(adapters, &crate::methods::tracer::host::device_request()) {
             Ok(ctx) => ctx,
             Err(_) if choice == DeviceChoice::Auto => return Ok(Renderer::cpu(env)),
             Err(e) => return Err(DeviceError::NoGpu(e)),

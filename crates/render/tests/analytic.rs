@@ -7,14 +7,14 @@ mod common;
 
 use glam::{DVec2, DVec3};
 use proptest::prelude::*;
-use render::analytic::edge::{Quadratic, TriangleSetup};
-use render::analytic::frame::{Binned, RasterStats, rasterize_sample, sample_coverage};
-use render::analytic::geometry::{CameraFrame, MovingTriangle, SurfaceKind, scene_triangles};
-use render::analytic::interval::{Insertion, Interval, compress, insert_opaque, merge, oracle};
-use render::analytic::resolve::{resolve_opaque, resolve_translucent};
-use render::analytic::{AnalyticParams, render_frame};
 use render::env::EnvironmentMap;
 use render::measure::analytic_accuracy as accuracy;
+use render::methods::analytic::edge::{Quadratic, TriangleSetup};
+use render::methods::analytic::frame::{Binned, RasterStats, rasterize_sample, sample_coverage};
+use render::methods::analytic::geometry::{CameraFrame, MovingTriangle, SurfaceKind, scene_triangles};
+use render::methods::analytic::interval::{Insertion, Interval, compress, insert_opaque, merge, oracle};
+use render::methods::analytic::resolve::{resolve_opaque, resolve_translucent};
+use render::methods::analytic::{AnalyticParams, render_frame};
 use study::Method;
 use study::method::MethodSpec;
 
@@ -217,7 +217,7 @@ fn a_vertex_crossing_the_eye_plane_during_the_shutter() {
         [v(-0.3, -0.2, 1.0), v(0.3, -0.2, 1.0), v(0.0, 0.3, -1.0)],
     );
     let camera = CameraFrame::new(&common::study_camera(64, 36));
-    assert_eq!(render::analytic::frame::pixel_bounds(&t, &camera, 64, 36), Some([0, 64, 0, 36]));
+    assert_eq!(render::methods::analytic::frame::pixel_bounds(&t, &camera, 64, 36), Some([0, 64, 0, 36]));
     let mut rng = 11u64;
     let mut seen = 0;
     for _ in 0..400 {
@@ -462,7 +462,7 @@ fn whole_frames_approach_the_tracer_reference_as_the_budget_grows() {
     let mut s = study_scene(64, 36, 1024);
     s.views[0].camera.sensor_width /= 4.0;
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
-    let reference = render::tracer::render_frame(&s, &env).eyes.remove(0);
+    let reference = render::methods::tracer::render_frame(&s, &env).eyes.remove(0);
     let mut errors = Vec::new();
     for intervals in [4, 6, 8, 10, 16, 64] {
         let params = AnalyticParams { intervals, tessellation: 64, lighting_samples: Some(256), supersampling: 1 };
@@ -546,7 +546,7 @@ fn frames_are_deterministic_whatever_the_thread_count() {
 
 #[test]
 fn the_linear_depth_error_histogram_of_figure_10() {
-    use render::analytic::geometry::VertexPaths::{RollingChords, Translated};
+    use render::methods::analytic::geometry::VertexPaths::{RollingChords, Translated};
     let s = study_scene(160, 90, 1);
     // The paper's case: triangles that deform (vertices on the rotation's chords).
     let h = accuracy::depth_error_histogram(&s, 0, 64, RollingChords, 1);
@@ -566,7 +566,7 @@ fn the_linear_depth_error_histogram_of_figure_10() {
 
 #[test]
 fn the_true_spheres_closed_form_coverage_matches_time_sampled_ray_tests() {
-    // The closed form of render::analytic::sphere against an independent reference: the
+    // The closed form of render::methods::analytic::sphere against an independent reference: the
     // ray-sphere test at 4096 instants in the shutter (midpoints), pixels near the sphere.
     let s = study_scene(160, 90, 1);
     let cam = &s.views[0].camera;
@@ -578,7 +578,7 @@ fn the_true_spheres_closed_form_coverage_matches_time_sampled_ray_tests() {
     let centre = cam.project(s.sphere.centre_at(0.5 * (open + close))).unwrap();
     for _ in 0..400 {
         let p = centre + DVec2::new(lcg(&mut rng) - 0.5, lcg(&mut rng) - 0.5) * 40.0;
-        let exact = render::analytic::sphere::sample_coverage(&s, 0, p);
+        let exact = render::methods::analytic::sphere::sample_coverage(&s, 0, p);
         let d = cam.ray_direction(p);
         let hits = (0..n)
             .filter(|&i| {
@@ -600,7 +600,7 @@ fn the_true_spheres_closed_form_coverage_matches_time_sampled_ray_tests() {
 
 #[test]
 fn the_tessellated_sphere_converges_to_the_true_spheres_coverage() {
-    use render::analytic::geometry::VertexPaths::{RollingChords, Translated};
+    use render::methods::analytic::geometry::VertexPaths::{RollingChords, Translated};
     // M3-S3-T5: the sphere turns by speed x shutter / radius = 0.75 rad in the exposure.
     let s = study_scene(160, 90, 1);
     let e: Vec<_> = [16, 64, 256].map(|n| accuracy::tessellation_error(&s, 0, n, Translated, 1)).into();
@@ -642,7 +642,7 @@ fn the_renderer_dispatches_analytic_and_refuses_bad_settings() {
     let sphere = tris.iter().filter(|t| t.surface == SurfaceKind::Sphere).count();
     assert_eq!(sphere, 2 * 64 * 31);
     // About half the sphere faces away throughout the shutter and is culled.
-    let binned = render::analytic::frame::bin(&tris, &camera, 32, 18);
+    let binned = render::methods::analytic::frame::bin(&tris, &camera, 32, 18);
     let kept = binned.iter().filter(|b| b.triangle.surface == SurfaceKind::Sphere).count();
     assert!(kept > sphere * 4 / 10 && kept < sphere * 6 / 10, "{kept} of {sphere}");
     assert!(
@@ -707,11 +707,11 @@ fn a_sphere_that_wraps_over_within_the_shutter_is_refused_on_every_device() {
     let wrap = s.sphere.wrap_length.expect("the study's path wraps");
     let duration = s.shutter.close - s.shutter.open;
     let env = render::env::EnvironmentMap::from_lighting(&s.lighting).unwrap();
-    assert!(render::analytic::render_frame(&s, &env, &AnalyticParams::default()).is_ok());
+    assert!(render::methods::analytic::render_frame(&s, &env, &AnalyticParams::default()).is_ok());
     // 1.5 wrap lengths per exposure.
     s.sphere.velocity *= 1.5 * wrap / (s.sphere.velocity.length() * duration);
-    let e = render::analytic::render_frame(&s, &env, &AnalyticParams::default()).unwrap_err();
-    assert!(matches!(e, render::analytic::AnalyticError::WrapsOver { .. }), "{e}");
+    let e = render::methods::analytic::render_frame(&s, &env, &AnalyticParams::default()).unwrap_err();
+    assert!(matches!(e, render::methods::analytic::AnalyticError::WrapsOver { .. }), "{e}");
     assert!(e.to_string().contains("degrees_per_second"), "{e}");
     // Through the Renderer, as render-frame uses it: a settings error (exit 2), not an image.
     let spec = study::method::MethodSpec::of(study::Method::Analytic);
@@ -724,7 +724,7 @@ fn a_sphere_that_wraps_over_within_the_shutter_is_refused_on_every_device() {
 /// the 1 mm near plane, so its frames are the bytes they were.
 #[test]
 fn the_shipped_designs_cameras_keep_the_floor_as_it_was() {
-    use render::analytic::geometry::{FLOOR_EXTENT, NEAR, floor_extent, floor_near};
+    use render::methods::analytic::geometry::{FLOOR_EXTENT, NEAR, floor_extent, floor_near};
     let design = study::design::Design::load(
         &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
     )
@@ -748,7 +748,7 @@ fn the_shipped_designs_cameras_keep_the_floor_as_it_was() {
 /// the near plane lies below every ray's floor point (issue 31, defect 7).
 #[test]
 fn the_analytic_floor_reaches_the_horizon_and_the_feet_of_any_camera() {
-    use render::analytic::geometry::{FLOOR_EXTENT, NEAR, floor_extent, floor_near};
+    use render::methods::analytic::geometry::{FLOOR_EXTENT, NEAR, floor_extent, floor_near};
     let mut s = common::study_frame(32, 18, 1, 1.0);
     s.views[0].camera.focal_length *= 1e4;
     let camera = CameraFrame::new(&s.views[0].camera);
@@ -778,7 +778,7 @@ fn the_contact_shadows_error_is_the_methods_measured_limit_and_grows_with_speed(
             (v.camera.width, v.camera.height) = (96, 54);
         }
         let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
-        let traced = render::tracer::render_frame(&s, &env);
+        let traced = render::methods::tracer::render_frame(&s, &env);
         let raster = render_frame(&s, &env, &accuracy::SHADOW_PARAMS).unwrap();
         accuracy::contact_shadow_error(&s, speed, &traced.eyes[0], &raster.eyes[0])
     };

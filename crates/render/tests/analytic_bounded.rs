@@ -4,8 +4,8 @@
 
 use std::time::Instant;
 
-use render::analytic::{AnalyticParams, render_frame};
 use render::env::EnvironmentMap;
+use render::methods::analytic::{AnalyticParams, render_frame};
 use study::design::Design;
 
 #[test]

@@ -1,6 +1,6 @@
-//! The analytic rasterizer's GPU kernel (`shaders/analytic.wgsl`) against its f32 CPU twin
-//! (`render::analytic::gpu::analytic_twin`), and the twin against the f64 rasterizer
-//! (`render::analytic`): coverage without shading noise pixel by pixel, shaded frames, and
+//! The analytic rasterizer's GPU kernel (`methods/analytic/analytic_pixel.wgsl`) against its f32 CPU twin
+//! (`render::methods::analytic::analytic_pixel`), and the twin against the f64 rasterizer
+//! (`render::methods::analytic`): coverage without shading noise pixel by pixel, shaded frames, and
 //! the interval counts. Small study frames (64 x 36, and zoomed in 4x so the sphere's
 //! triangles are about a pixel and it moves 9 px). Without a GPU adapter the GPU tests say
 //! SKIPPED (and fail under `BLURLAB_REQUIRE_GPU=1`).
@@ -10,17 +10,18 @@
 mod common;
 
 use glam::{DVec2, Vec3};
-use render::analytic::AnalyticParams;
-use render::analytic::frame::{RasterStats, bin, rasterize_sample};
-use render::analytic::geometry::{CameraFrame, SurfaceKind, scene_triangles};
-use render::analytic::gpu::analytic_host::raster_stats;
-use render::analytic::gpu::analytic_twin::{Kernel, render_view};
-use render::analytic::gpu::{GpuAnalytic, Prepared};
-use render::analytic::interval::SEARCH_RANGE_OPAQUE;
-use render::analytic::resolve::resolve_opaque;
 use render::env::EnvironmentMap;
+use render::methods::analytic::AnalyticParams;
+use render::methods::analytic::GpuAnalytic;
+use render::methods::analytic::analytic_pixel::{Kernel, render_view};
+use render::methods::analytic::frame::{RasterStats, bin, rasterize_sample};
+use render::methods::analytic::geometry::{CameraFrame, SurfaceKind, scene_triangles};
+use render::methods::analytic::host::raster_stats;
+use render::methods::analytic::interval::SEARCH_RANGE_OPAQUE;
+use render::methods::analytic::prepare::Prepared;
+use render::methods::analytic::resolve::resolve_opaque;
+use render::methods::tracer::GpuTracer;
 use render::shading::gpu::params::{EnvTables, Specialisation};
-use render::tracer::gpu::GpuTracer;
 use study::scene::FrameScene;
 
 fn study_scene(width: u32, height: u32, spp: u32, zoom: f64) -> FrameScene {
@@ -58,7 +59,7 @@ fn twin(
     tables: &EnvTables,
     params: &AnalyticParams,
     shade: bool,
-) -> render::analytic::gpu::analytic_twin::View {
+) -> render::methods::analytic::analytic_pixel::View {
     let prepared = Prepared::new(s, &s.views[0], tables, params).unwrap();
     let k = Kernel { prepared: &prepared, env: &tables.words, spec: Specialisation::of(s), shade };
     render_view(&k)
@@ -97,7 +98,7 @@ fn the_f32_twin_shades_like_the_f64_rasterizer_up_to_noise() {
     let tables = EnvTables::new(&env);
     let params = AnalyticParams { lighting_samples: Some(64), ..PARAMS };
     let view = twin(&s, &tables, &params, true);
-    let f64_frame = render::analytic::render_frame(&s, &env, &params).unwrap();
+    let f64_frame = render::methods::analytic::render_frame(&s, &env, &params).unwrap();
     let mean = |img: &render::io::LinearImage| {
         img.pixels.iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / img.pixels.len() as f64
     };
@@ -110,7 +111,7 @@ fn the_f32_twin_shades_like_the_f64_rasterizer_up_to_noise() {
     assert!(rel < 0.01, "intervals offered: twin {} vs f64 {}", stats.intervals, f64_frame.stats.intervals);
 }
 
-fn gpu_and_env(test: &str, s: &FrameScene) -> Option<(GpuAnalytic, render::tracer::gpu::GpuEnvironment)> {
+fn gpu_and_env(test: &str, s: &FrameScene) -> Option<(GpuAnalytic, render::methods::tracer::GpuEnvironment)> {
     let ctx = gpu::test_context(test)?;
     let tracer = GpuTracer::new(ctx.clone()).expect("the tracer kernel compiles");
     let env = tracer.environment(&EnvironmentMap::from_lighting(&s.lighting).unwrap()).unwrap();
@@ -179,10 +180,10 @@ fn a_supersampled_gpu_frame_is_the_twins_larger_frame_averaged_in_blocks() {
         return;
     };
     let frame = gpu.render_frame(&s, &env, &params).unwrap();
-    let large = render::analytic::supersample::scaled(&s, 2);
+    let large = render::methods::analytic::supersample::scaled(&s, 2);
     assert_eq!((large.views[0].camera.width, large.views[0].camera.height), (64, 36));
     let t = twin(&large, env.tables(), &params, true);
-    let expected = render::analytic::supersample::downsample(&t.image, 2);
+    let expected = render::methods::analytic::supersample::downsample(&t.image, 2);
     assert_eq!((frame.eyes[0].width, frame.eyes[0].height), (32, 18));
     let (worst, off) = compare(&frame.eyes[0].pixels, &expected.pixels, 1e-3);
     eprintln!("supersampled GPU frame vs the twin's: worst {worst:.2e}, {off} pixels over 1e-3");
@@ -243,7 +244,7 @@ fn the_gpu_refuses_a_sphere_that_wraps_over_within_the_shutter_as_the_cpu_does()
     let duration = s.shutter.close - s.shutter.open;
     s.sphere.velocity *= 1.5 * wrap / (s.sphere.velocity.length() * duration);
     let e = gpu.render_frame(&s, &env, &AnalyticParams::default()).unwrap_err();
-    let cpu = render::analytic::check_motion(&s).unwrap_err();
+    let cpu = render::methods::analytic::check_motion(&s).unwrap_err();
     assert_eq!(e.to_string(), cpu.to_string());
 }
 
@@ -261,7 +262,7 @@ fn a_sky_near_the_f32_maximum_shades_finite_and_like_the_f64_rasterizer() {
     let env_map = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let tables = EnvTables::new(&env_map);
     let t = twin(&s, &tables, &params, true);
-    let f64_frame = render::analytic::render_frame(&s, &env_map, &params).unwrap();
+    let f64_frame = render::methods::analytic::render_frame(&s, &env_map, &params).unwrap();
     let mean = |p: &[[f32; 3]]| p.iter().map(|c| f64::from(c[0])).sum::<f64>() / p.len() as f64;
     let (a, b) = (mean(&t.image.pixels), mean(&f64_frame.eyes[0].pixels));
     assert!(t.image.pixels.iter().flatten().all(|c| c.is_finite()));

@@ -1,15 +1,15 @@
-//! The motion blur filters' CPU twins (`render::filters`) on the hard cases of issue #13 and
+//! The motion blur filters' CPU twins (`render::methods::post_process`) on the hard cases of issue #13 and
 //! against closed forms: identity without motion, normalisation, clamping, depth ties and
 //! zero depths, image borders and partial tiles, non-finite input, thin features, opposite
 //! velocities at a tile border, and the box-filtered edge of a moving square.
 
 use rand::{RngExt, SeedableRng};
-use render::filters::common::PassParams;
-use render::filters::guertin::{stochastic_tile, try_guertin_cpu};
-use render::filters::mcguire::try_mcguire_cpu;
-use render::filters::{
-    FilterError, GBuffer, GuertinParams, McGuireParams, SKY_DEPTH as SKY, guertin_cpu, mcguire_cpu, tiles,
-};
+use render::methods::guertin::gather::{stochastic_tile, try_guertin_cpu};
+use render::methods::guertin::{GuertinParams, guertin_cpu};
+use render::methods::mcguire::gather::try_mcguire_cpu;
+use render::methods::mcguire::{McGuireParams, mcguire_cpu};
+use render::methods::post_process::common::PassParams;
+use render::methods::post_process::{FilterError, GBuffer, SKY_DEPTH as SKY, tiles};
 
 /// A G-buffer from a function of the pixel: (colour, depth, velocity).
 fn gbuffer(w: u32, h: u32, f: impl Fn(u32, u32) -> ([f32; 3], f32, [f32; 2])) -> GBuffer {
@@ -289,8 +289,8 @@ fn non_finite_colours_and_depths_stay_in_their_pixel() {
     let mut clean = random_gbuffer(w, h, 40.0, 7);
     clean.color.fill([0.3, 0.6, 0.9]);
     // The pixels passed through, which the renderer counts as discarded.
-    assert_eq!(render::filters::nonfinite_pixels(&clean), 0);
-    assert_eq!(render::filters::nonfinite_pixels(&spoil(&clean)), 5);
+    assert_eq!(render::methods::post_process::nonfinite_pixels(&clean), 0);
+    assert_eq!(render::methods::post_process::nonfinite_pixels(&spoil(&clean)), 5);
     let clean_out = both(&clean, Some(12), None);
     for ((name, out), (_, want)) in both(&spoil(&clean), Some(12), None).iter().zip(&clean_out) {
         for (i, (o, c)) in out.iter().zip(want).enumerate() {

@@ -1,15 +1,15 @@
-//! The motion blur filters' WGSL passes (`shaders/filters/`) against their CPU twins
-//! (`render::filters`), pass by pass and on the final image, on small G-buffers (64 x 36 and
+//! The motion blur filters' WGSL passes (`methods/post_process/tiles.wgsl`, each filter's `gather.wgsl`) against their CPU twins
+//! (`render::methods::post_process`), pass by pass and on the final image, on small G-buffers (64 x 36 and
 //! sizes that are not multiples of the tile), plus the hard cases whose answer is exact:
 //! no motion, non-finite colours, bad sizes. Without a GPU adapter each test says SKIPPED
 //! (and fails under `BLURLAB_REQUIRE_GPU=1`).
 
 use rand::{RngExt, SeedableRng};
-use render::filters::common::PassParams;
-use render::filters::gpu::{GUERTIN_WGSL, MCGUIRE_WGSL, TILES_WGSL, assemble};
-use render::filters::{
-    FilterError, GBuffer, GpuFilters, GuertinParams, McGuireParams, guertin_cpu, mcguire_cpu, tiles,
-};
+use render::methods::guertin::{GuertinParams, guertin_cpu};
+use render::methods::mcguire::{McGuireParams, mcguire_cpu};
+use render::methods::post_process::common::PassParams;
+use render::methods::post_process::host::{GUERTIN_WGSL, MCGUIRE_WGSL, TILES_WGSL, assemble};
+use render::methods::post_process::{FilterError, GBuffer, GpuFilters, tiles};
 
 /// One 8-bit step: the tolerance per channel between the GPU and its twin (linear values
 /// of inputs in [0, 1]). Measured on Mesa 22.3.6's llvmpipe (wgpu's GL backend; this machine
@@ -120,7 +120,7 @@ fn each_pass_agrees_with_its_cpu_twin() {
                 // The gather, from the twin's own intermediates.
                 let mut twin = vec![[0.0f32; 3]; p.pixels()];
                 if guertin {
-                    render::filters::guertin::guertin_gather(
+                    render::methods::guertin::gather::guertin_gather(
                         &p,
                         &g.color,
                         &g.depth,
@@ -130,7 +130,7 @@ fn each_pass_agrees_with_its_cpu_twin() {
                         &mut twin,
                     );
                 } else {
-                    render::filters::mcguire::mcguire_gather(
+                    render::methods::mcguire::gather::mcguire_gather(
                         &p,
                         &g.color,
                         &g.depth,
@@ -249,7 +249,7 @@ fn colours_near_the_f32_maximum_stay_finite_on_the_gpu_and_equal_the_twins() {
     for (i, (c, (z, v))) in sky.color.iter_mut().zip(sky.depth.iter_mut().zip(&mut sky.velocity)).enumerate() {
         let (x, y) = (i % 64, i / 64);
         if !((20..34).contains(&x) && (10..26).contains(&y)) {
-            (*c, *z, *v) = ([3e38, 3e38, 1e38], render::filters::SKY_DEPTH, [0.0, 0.0]);
+            (*c, *z, *v) = ([3e38, 3e38, 1e38], render::methods::post_process::SKY_DEPTH, [0.0, 0.0]);
         }
     }
     let m = McGuireParams { tile: 12, ..McGuireParams::default() };

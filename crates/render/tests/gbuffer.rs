@@ -7,8 +7,8 @@ mod common;
 
 use common::{flat, scene, study_camera, study_frame, uniform};
 use glam::{DVec2, DVec3};
-use render::filters::SKY_DEPTH;
-use render::gbuffer::{FloorMotion, MAX_VELOCITY, MOTION_NEAR, pixel_geometry, screen_motion};
+use render::methods::post_process::SKY_DEPTH;
+use render::methods::post_process::gbuffer::{FloorMotion, MAX_VELOCITY, MOTION_NEAR, pixel_geometry, screen_motion};
 
 #[test]
 fn a_point_moving_past_the_near_plane_keeps_its_clipped_motion() {
@@ -112,7 +112,7 @@ fn the_filters_blur_a_sphere_whose_motion_passes_the_camera() {
         height: h,
         pixels: (0..w * h).map(|i| [(i % 7) as f32 / 7.0, (i % 5) as f32 / 5.0, (i % 3) as f32 / 3.0]).collect(),
     };
-    let g = render::gbuffer::gbuffers(&s, vec![eye], FloorMotion::Surface).remove(0);
+    let g = render::methods::post_process::gbuffer::gbuffers(&s, vec![eye], FloorMotion::Surface).remove(0);
     let on_sphere = |i: usize| {
         let (x, y) = (i as u32 % w, i as u32 / w);
         let dir = cam.ray_direction(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
@@ -122,8 +122,8 @@ fn the_filters_blur_a_sphere_whose_motion_passes_the_camera() {
     let sphere: Vec<usize> = (0..g.depth.len()).filter(|&i| on_sphere(i)).collect();
     let still = sphere.iter().filter(|&&i| g.velocity[i] == [0.0, 0.0]).count();
     assert!(sphere.len() > 20 && still == 0, "{still} of {} sphere pixels without velocity", sphere.len());
-    let m = render::filters::mcguire_cpu(&g, &render::filters::McGuireParams::default());
-    let q = render::filters::guertin_cpu(&g, &render::filters::GuertinParams::default());
+    let m = render::methods::mcguire::mcguire_cpu(&g, &render::methods::mcguire::McGuireParams::default());
+    let q = render::methods::guertin::guertin_cpu(&g, &render::methods::guertin::GuertinParams::default());
     for (name, out) in [("mcguire", m), ("guertin", q)] {
         let changed = sphere.iter().filter(|&&i| out[i] != g.color[i]).count();
         assert!(changed * 10 > sphere.len() * 9, "{name}: {changed} of {} sphere pixels blurred", sphere.len());

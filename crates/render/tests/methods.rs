@@ -11,9 +11,11 @@ use common::{L, coverage_scene, exact_coverage, flat, scene, study_camera, unifo
 use glam::{DVec2, DVec3};
 use render::Renderer;
 use render::env::EnvironmentMap;
-use render::filters::SKY_DEPTH;
-use render::gbuffer::{FloorMotion, SHADOW_FORM_FACTOR, gbuffers, pixel_geometry, shadow_form_factor};
 use render::io::LinearImage;
+use render::methods::post_process::SKY_DEPTH;
+use render::methods::post_process::gbuffer::{
+    FloorMotion, SHADOW_FORM_FACTOR, gbuffers, pixel_geometry, shadow_form_factor,
+};
 use study::Method;
 use study::method::MethodSpec;
 use study::scene::{FrameScene, Shutter};

@@ -8,10 +8,11 @@ mod common;
 use common::{L, flat, scene, study_camera, uniform};
 use glam::DVec3;
 use render::env::EnvironmentMap;
-use render::filters::{GuertinParams, McGuireParams};
-use render::gbuffer::{FloorMotion, gbuffers};
 use render::io::LinearImage;
 use render::method::filter_seed;
+use render::methods::guertin::GuertinParams;
+use render::methods::mcguire::McGuireParams;
+use render::methods::post_process::gbuffer::{FloorMotion, gbuffers};
 use render::{DeviceChoice, Renderer};
 use study::Method;
 use study::method::MethodSpec;
@@ -54,8 +55,8 @@ fn gpu_filters_over_the_gpu_gbuffer_equal_their_cpu_twins() {
         let spec = MethodSpec::of(kind);
         let frame = renderer.render(&spec, &s).unwrap();
         let twin = match &spec {
-            MethodSpec::Mcguire(m) => render::filters::mcguire_cpu(&g, &McGuireParams::from_settings(m, seed)),
-            MethodSpec::Guertin(m) => render::filters::guertin_cpu(&g, &GuertinParams::from_settings(m, seed)),
+            MethodSpec::Mcguire(m) => render::methods::mcguire::mcguire_cpu(&g, &McGuireParams::from_settings(m, seed)),
+            MethodSpec::Guertin(m) => render::methods::guertin::guertin_cpu(&g, &GuertinParams::from_settings(m, seed)),
             other => panic!("not a filter: {other:?}"),
         };
         let worst = frame
@@ -80,12 +81,12 @@ fn gpu_accumulation_buffer_is_the_mean_of_the_gpu_instants() {
     };
     let settings = study::method::AccumSettings { instants: Some(4), ..Default::default() };
     let frame = renderer.render(&MethodSpec::Accum(settings.clone()), &s).unwrap();
-    let instants: Vec<Vec<LinearImage>> = render::accum::instant_scenes(&s, &settings)
+    let instants: Vec<Vec<LinearImage>> = render::methods::accum::instants::instant_scenes(&s, &settings)
         .iter()
         .map(|i| split(&renderer.render(&MethodSpec::of(Method::Tracer), i).unwrap().image))
         .collect();
     assert_eq!(instants.len(), 4);
-    assert_eq!(frame.image, render::accum::average(&instants).remove(0));
+    assert_eq!(frame.image, render::methods::accum::instants::average(&instants).remove(0));
     assert_eq!(frame.camera_samples, 4 * 64 * 36);
 }
 
@@ -103,16 +104,16 @@ fn the_analytic_method_on_a_gpu_renderer_runs_its_kernel() {
         ..Default::default()
     };
     let frame = renderer.render(&MethodSpec::Analytic(settings.clone()), &s).unwrap();
-    let params = render::analytic::AnalyticParams::from_settings(&settings).unwrap();
+    let params = render::methods::analytic::AnalyticParams::from_settings(&settings).unwrap();
     // The kernel's own output (its f32 twin is held to it in tests/analytic_gpu.rs), not the
     // f64 CPU rasterizer's, whose shading samples differ.
     let ctx = gpu::test_context("the_analytic_method_on_a_gpu_renderer_runs_its_kernel").unwrap();
-    let tracer = render::tracer::gpu::GpuTracer::new(ctx.clone()).unwrap();
+    let tracer = render::methods::tracer::GpuTracer::new(ctx.clone()).unwrap();
     let genv = tracer.environment(&env).unwrap();
-    let kernel = render::analytic::gpu::GpuAnalytic::new(ctx).unwrap();
+    let kernel = render::methods::analytic::GpuAnalytic::new(ctx).unwrap();
     let direct = kernel.render_frame(&s, &genv, &params).unwrap();
     assert_eq!(frame.image.pixels, direct.eyes[0].pixels);
-    let cpu = render::analytic::render_frame(&s, &env, &params).unwrap();
+    let cpu = render::methods::analytic::render_frame(&s, &env, &params).unwrap();
     assert_ne!(frame.image.pixels, cpu.eyes[0].pixels, "the GPU renderer must not fall back to the CPU rasterizer");
     assert_eq!(frame.camera_samples, direct.lighting_samples);
 }

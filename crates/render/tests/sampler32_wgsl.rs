@@ -1,11 +1,11 @@
-//! `shaders/sampler32.wgsl` against its CPU twin `render::shading::gpu::sampler32`: a compute
+//! `shading/gpu/sampler32.wgsl` against its CPU twin `render::shading::gpu::sampler32`: a compute
 //! shader derives the pixel seeds and computes the 1D and 2D sample values of a few thousand
 //! (eye, pixel, sample index, dimension) cases, with sample indices at the start of the
 //! stream, around 2^16, 2^20 and 2^31 and at u32::MAX, and dimensions 0..=20 and beyond;
 //! every seed and value must equal the CPU's bit for bit, as integers and as f32.
 
+use render::shading::gpu::assembler::assembler;
 use render::shading::gpu::sampler32;
-use render::tracer::gpu::assembler;
 
 const KERNEL: &str = "//! include sampler32
 // Per case: eye seed, pixel, sample index, dimension.

@@ -1,4 +1,4 @@
-//! The GPU tracer (`shaders/tracer.wgsl`) against its f32 CPU twin (`shading::gpu::tracer_twin`) and
+//! The GPU tracer (`methods/tracer/trace_batch.wgsl` with the shading layer's `radiance.wgsl`) against its f32 CPU twin (`methods::tracer::trace_batch` with `shading::gpu::radiance`) and
 //! against the f64 CPU tracer, on small images of the study's own scenes (the design file,
 //! shrunk to 64 x 36), plus the physics tests of `tracer_physics.rs` that have a closed
 //! form (white furnace, motion coverage) and the f32 hard cases. Without a GPU adapter each
@@ -12,9 +12,9 @@ use common::{L, assert_coverage_matches, coverage_scene, flat, furnace_scene, sc
 use glam::DVec3;
 use render::env::EnvironmentMap;
 use render::io::LinearImage;
+use render::methods::tracer::GpuTracer;
+use render::methods::tracer::trace_batch;
 use render::shading::gpu::params::{EnvTables, Specialisation, material_kind};
-use render::shading::gpu::tracer_twin as cpu;
-use render::tracer::gpu::GpuTracer;
 use study::design::Design;
 use study::ids::{StimulusId, View};
 use study::scene::{FrameScene, Material, Shutter};
@@ -71,7 +71,7 @@ fn the_kernel_agrees_with_its_cpu_twin_per_pixel() {
                 let spec = Specialisation::of(&s);
                 assert_eq!(spec.time_sampling, shutter == 5);
                 let out = gpu.render_frame(&s, &genv).unwrap();
-                let (twin, twin_bad) = cpu::render_frame(&s, genv.tables(), &spec).unwrap();
+                let (twin, twin_bad) = trace_batch::render_frame(&s, genv.tables(), &spec).unwrap();
                 assert_eq!(out.eyes.len(), twin.len());
                 assert_eq!(out.nonfinite_samples, twin_bad);
                 assert_eq!(out.camera_samples, u64::from(W * H * 8) * twin.len() as u64);
@@ -129,7 +129,7 @@ fn assert_agrees_with_f64(gpu: &GpuTracer, s: &FrameScene, what: &str) {
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let genv = gpu.environment(&env).unwrap();
     let g = gpu.render_frame(s, &genv).unwrap();
-    let c = render::tracer::render_frame(s, &env);
+    let c = render::methods::tracer::render_frame(s, &env);
     assert_eq!(g.nonfinite_samples, 0, "{what}: NaN or infinite samples on the GPU");
     for (ge, ce) in g.eyes.iter().zip(&c.eyes) {
         assert!(ge.pixels.iter().flatten().all(|v| v.is_finite() && *v >= 0.0), "{what}");
@@ -262,7 +262,7 @@ fn f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer() {
     let out = gpu.render_frame_with(&s, &genv, forced).unwrap();
     assert_eq!(out.nonfinite_samples, 0);
     assert_eq!(out.eyes, gpu.render_frame(&s, &genv).unwrap().eyes);
-    let (twin, _) = cpu::render_frame(&s, &EnvTables::new(&env), &forced).unwrap();
+    let (twin, _) = trace_batch::render_frame(&s, &EnvTables::new(&env), &forced).unwrap();
     assert!(max_abs_difference(&out.eyes[0], &twin[0]).0 < 1e-4);
 }
 
@@ -314,7 +314,7 @@ fn overflowing_samples_are_counted_and_discarded_as_the_twin_does() {
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let genv = gpu.environment(&env).unwrap();
     let out = gpu.render_frame(&s, &genv).unwrap();
-    let (twin, twin_bad) = cpu::render_frame(&s, genv.tables(), &Specialisation::of(&s)).unwrap();
+    let (twin, twin_bad) = trace_batch::render_frame(&s, genv.tables(), &Specialisation::of(&s)).unwrap();
     assert!(out.nonfinite_samples > 0, "no sample overflowed");
     assert!(out.nonfinite_samples < out.camera_samples / 2, "{} of {}", out.nonfinite_samples, out.camera_samples);
     assert_eq!(out.nonfinite_samples, twin_bad);

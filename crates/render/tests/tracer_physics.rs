@@ -12,8 +12,8 @@ use glam::{DVec2, DVec3};
 use render::env::{EnvironmentMap, default_map};
 use render::io::LinearImage;
 use render::measure::tracer::freeze_at;
+use render::methods::tracer::{FrameSetup, render_frame};
 use render::numeric::solve_quadratic;
-use render::tracer::{FrameSetup, render_frame};
 use study::ids::{StimulusId, View};
 use study::scene::{Camera, Environment, EyeView, Floor, FrameScene, Integrator, Material, Shutter};
 use study::seed::Eye;
@@ -471,7 +471,7 @@ fn nested_levels_are_each_sample_count_rendered_alone() {
     s.sphere.velocity = DVec3::new(1.5, 0.0, 0.0);
     s.shutter = Shutter { open: 0.0, close: 1.0 / 30.0 };
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
-    let levels = render::tracer::render_frame_nested(&s, &env, &[5, 1, 5, 40, 0]);
+    let levels = render::methods::tracer::render_frame_nested(&s, &env, &[5, 1, 5, 40, 0]);
     let counts: Vec<u64> = levels.iter().map(|l| l.camera_samples).collect();
     assert_eq!(counts, [24 * 16, 24 * 16 * 5, 24 * 16 * 12]);
     for (level, spp) in levels.iter().zip([1, 5, 12]) {

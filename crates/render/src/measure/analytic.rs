@@ -12,8 +12,8 @@ use std::time::Instant;
 use serde_json::{Value, json};
 use study::design::Design;
 
-use crate::analytic::{AnalyticParams, render_frame};
 use crate::env::EnvironmentMap;
+use crate::methods::analytic::{AnalyticParams, render_frame};
 
 /// What to measure.
 #[derive(Clone, Copy, Debug)]
@@ -95,13 +95,13 @@ fn run_gpu(
     cpu_mean_ms: f64,
 ) -> Result<Value, String> {
     let ctx =
-        ::gpu::acquire(::gpu::AdapterChoice::HardwareThenSoftware, &crate::tracer::gpu::tracer_host::device_request())
+        ::gpu::acquire(::gpu::AdapterChoice::HardwareThenSoftware, &crate::methods::tracer::host::device_request())
             .map_err(|e| e.to_string())?;
     let adapter = ctx.info.short();
     let software = ctx.info.is_software;
-    let tracer = crate::tracer::gpu::GpuTracer::new(ctx.clone()).map_err(|e| e.to_string())?;
+    let tracer = crate::methods::tracer::GpuTracer::new(ctx.clone()).map_err(|e| e.to_string())?;
     let genv = tracer.environment(env).map_err(|e| e.to_string())?;
-    let kernel = crate::analytic::gpu::GpuAnalytic::new(ctx).map_err(|e| e.to_string())?;
+    let kernel = crate::methods::analytic::GpuAnalytic::new(ctx).map_err(|e| e.to_string())?;
     let warm = kernel.render_frame(scene, &genv, &opts.params).map_err(|e| e.to_string())?;
     let (mut wall, mut stamps) = (Vec::new(), Vec::new());
     for _ in 0..opts.rounds.max(1) {

@@ -4,18 +4,18 @@
 //! decade bins. (The paper measures the error relative to the far-near range of its depth
 //! buffer; here it is relative to the true view depth, which is stricter for distant
 //! surfaces.) [`tessellation_error`] compares the tessellated sphere's coverage at each
-//! pixel's sample point with the true sphere's ([`crate::analytic::sphere`]): what the triangles and
+//! pixel's sample point with the true sphere's ([`crate::methods::analytic::sphere`]): what the triangles and
 //! their straight vertex paths cost before any compression.
 
 use glam::DVec2;
 use serde::Serialize;
 use study::scene::FrameScene;
 
-use crate::analytic::frame::{RasterStats, bin, rasterize_sample};
-use crate::analytic::geometry::{CameraFrame, VertexPaths, floor_triangles, sphere_triangles};
-use crate::analytic::interval::SEARCH_RANGE_OPAQUE;
-use crate::analytic::resolve::resolve_opaque;
-use crate::analytic::sphere;
+use crate::methods::analytic::frame::{RasterStats, bin, rasterize_sample};
+use crate::methods::analytic::geometry::{CameraFrame, VertexPaths, floor_triangles, sphere_triangles};
+use crate::methods::analytic::interval::SEARCH_RANGE_OPAQUE;
+use crate::methods::analytic::resolve::resolve_opaque;
+use crate::methods::analytic::sphere;
 
 /// Decade bins of the largest relative depth error per interval.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -110,7 +110,7 @@ pub fn tessellation_error(
         let camera = CameraFrame::new(cam);
         let tris = sphere_triangles(scene, &camera, segments, paths);
         let binned = bin(&tris, &camera, cam.width, cam.height);
-        let budget = *crate::analytic::INTERVALS_RANGE.end() as usize;
+        let budget = *crate::methods::analytic::INTERVALS_RANGE.end() as usize;
         let true_sphere = sphere::MovingSphere::of(scene);
         let mut stats = RasterStats::default();
         for y in (0..cam.height).step_by(stride.max(1) as usize) {
@@ -144,9 +144,9 @@ pub fn tessellation_error(
 /// The rasterizer's settings for [`contact_shadow_error`]: the defaults with 4 x 4 sample
 /// points per pixel, so that a pixel's area is covered as the tracer covers it and what
 /// remains is the shading's limit, not the one-point sampling's aliasing.
-pub const SHADOW_PARAMS: crate::analytic::AnalyticParams = crate::analytic::AnalyticParams {
-    intervals: crate::analytic::DEFAULT_INTERVALS,
-    tessellation: crate::analytic::DEFAULT_TESSELLATION,
+pub const SHADOW_PARAMS: crate::methods::analytic::AnalyticParams = crate::methods::analytic::AnalyticParams {
+    intervals: crate::methods::analytic::DEFAULT_INTERVALS,
+    tessellation: crate::methods::analytic::DEFAULT_TESSELLATION,
     lighting_samples: None,
     supersampling: 4,
 };

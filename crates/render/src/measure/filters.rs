@@ -13,10 +13,13 @@ use study::design::Design;
 use study::method::{GuertinSettings, McGuireSettings};
 use study::stats::median;
 
-use crate::filters::{GBuffer, GpuFilters, guertin_cpu, mcguire_cpu};
-use crate::filters::{GuertinParams, McGuireParams};
-use crate::gbuffer::{FloorMotion, gbuffers};
 use crate::method::filter_seed;
+use crate::methods::guertin::GuertinParams;
+use crate::methods::guertin::guertin_cpu;
+use crate::methods::mcguire::McGuireParams;
+use crate::methods::mcguire::mcguire_cpu;
+use crate::methods::post_process::gbuffer::{FloorMotion, gbuffers};
+use crate::methods::post_process::{GBuffer, GpuFilters};
 
 /// What to measure.
 #[derive(Clone, Debug)]
@@ -44,7 +47,7 @@ pub enum FilterTimingError {
     Environment(#[from] crate::env::EnvError),
     /// A filter failed.
     #[error(transparent)]
-    Filter(#[from] crate::filters::FilterError),
+    Filter(#[from] crate::methods::post_process::FilterError),
 }
 
 /// The benchmark frame's G-buffer at `width` x `height` (radiance traced at 1 sample per pixel
@@ -57,7 +60,7 @@ pub fn benchmark_gbuffer(design: &Design, width: u32, height: u32) -> Result<GBu
     }
     let env = crate::env::EnvironmentMap::from_lighting(&scene.lighting)?;
     let centre = scene.at_instant(scene.shutter.centre());
-    let eyes = crate::tracer::render_frame(&centre, &env).eyes;
+    let eyes = crate::methods::tracer::render_frame(&centre, &env).eyes;
     Ok(gbuffers(&scene, eyes, FloorMotion::default()).remove(0))
 }
 

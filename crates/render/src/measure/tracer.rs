@@ -14,8 +14,8 @@ use study::scene::{Environment, FrameScene};
 
 use crate::env::{EnvironmentMap, default_map};
 use crate::io::{LinearImage, decode_exr, encode_exr};
+use crate::methods::tracer::render_frame;
 use crate::numeric::CompensatedSum;
-use crate::tracer::render_frame;
 
 /// The stimulus the benchmark renders.
 pub const BENCH_STIMULUS: StimulusId =

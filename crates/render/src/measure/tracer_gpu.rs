@@ -13,8 +13,8 @@ use study::scene::FrameScene;
 
 use crate::env::EnvironmentMap;
 use crate::measure::tracer::{BENCH_STIMULUS, BenchError, benchmark_frame, frame_json, full_set_camera_samples};
+use crate::methods::tracer::{GpuEnvironment, GpuTracer};
 use crate::shading::gpu::params::Specialisation;
-use crate::tracer::gpu::{GpuEnvironment, GpuTracer};
 
 /// Options of [`run_gpu_benchmark`].
 #[derive(Clone, Debug)]
@@ -43,7 +43,7 @@ fn best_of(
     spec: Specialisation,
     rounds: u32,
 ) -> Result<Best, BenchError> {
-    let gpu = |e: crate::tracer::gpu::GpuTracerError| BenchError::Gpu(e.to_string());
+    let gpu = |e: crate::methods::tracer::GpuTracerError| BenchError::Gpu(e.to_string());
     // Compiles the pipeline and warms the caches, untimed.
     let mut warm = scene.clone();
     warm.samples_per_pixel = 1;
@@ -140,7 +140,7 @@ pub fn run_gpu_benchmark(tracer: &GpuTracer, opts: &GpuBenchOptions) -> Result<s
         let mut samples = 0;
         for _ in 0..rounds.max(1) {
             let start = Instant::now();
-            let out = crate::tracer::render_frame(&scene, &env);
+            let out = crate::methods::tracer::render_frame(&scene, &env);
             best = best.min(start.elapsed().as_secs_f64());
             samples = out.camera_samples;
         }

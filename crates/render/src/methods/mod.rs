@@ -1,8 +1,9 @@
-//! The rendering methods behind one contract, [`RenderMethod`]: each method is one file (or
-//! folder) here that says how it renders a frame on the renderer's device and which GPU
-//! state it needs there, and one line of `register!`. Its settings (keys, defaults, ranges,
-//! cost estimate, cost-sweep knob and report label) are the study model's
-//! (`study::method::NAME`); its algorithms live in the modules named in its file.
+//! The rendering methods behind one contract, [`RenderMethod`]: each method is one folder
+//! here holding its registration (`mod.rs`: how it renders a frame on the renderer's device
+//! and which GPU state it needs there), its CPU reference, its WGSL passes beside their CPU
+//! twins of the same name and its GPU host, and one line of `register!`. Its settings
+//! (keys, defaults, ranges, cost estimate, cost-sweep knob and report label) are the study
+//! model's (`study::method::NAME`). `post_process` is what the two filters share.
 //!
 //! Set rendering, `render-frame`, shards, the cost sweep and the benchmarks all render
 //! through [`crate::Renderer::submit`], which dispatches here.
@@ -18,12 +19,12 @@ use study::scene::FrameScene;
 use crate::method::RenderError;
 use crate::renderer::{DeviceError, Renderer, Submitted};
 
-mod accum;
-mod analytic;
-mod guertin;
-mod mcguire;
-mod post_process;
-mod tracer;
+pub mod accum;
+pub mod analytic;
+pub mod guertin;
+pub mod mcguire;
+pub mod post_process;
+pub mod tracer;
 
 pub use tracer::TracerHost;
 pub(crate) use tracer::{open_tracer_host, tracer_error};

@@ -11,7 +11,7 @@
 //! tracer skips that surface rather than relying on an epsilon.
 
 use crate::numeric::offset_along_normal;
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
 /// A ray with a unit direction.
 #[derive(Clone, Copy, Debug)]
@@ -55,60 +55,89 @@ pub struct Geometry {
     pub floor_height: f64,
 }
 
+/// One body for both widths: the f64 reference and the GPU kernels' f32 twin
+/// (`shading::gpu::radiance`, mirrored by `radiance.wgsl`) run these same operations.
+macro_rules! intersect_impl {
+    ($t:ty, $v:ty, $sphere:ident, $blocks:ident, $floor:ident) => {
+        /// Nearest root with `t > 0` of the sphere's quadratic for the ray from `o` along
+        /// the unit direction `d`, or `None`.
+        #[inline]
+        pub fn $sphere(o: $v, d: $v, centre: $v, radius: $t) -> Option<$t> {
+            let f = o - centre;
+            let b = -f.dot(d);
+            let v = f + d * b;
+            let disc = radius * radius - v.dot(v);
+            if disc < 0.0 || disc.is_nan() {
+                return None;
+            }
+            let c = f.dot(f) - radius * radius;
+            let q = b + disc.sqrt().copysign(b);
+            if q == 0.0 {
+                // Origin at the centre's plane with a tangent ray: both roots 0.
+                return None;
+            }
+            let (t0, t1) = {
+                let (a, b) = (c / q, q);
+                if a < b { (a, b) } else { (b, a) }
+            };
+            if t0 > 0.0 {
+                Some(t0)
+            } else if t1 > 0.0 {
+                Some(t1)
+            } else {
+                None
+            }
+        }
+
+        /// Whether the ray meets the sphere at some `t > 0`, without computing where: the
+        /// roots' product is `c = |f|^2 - r^2` and their sum `2 b`, so one is positive when
+        /// `c < 0` (the origin is inside) or, otherwise, when `b > 0`. Same discriminant as
+        #[doc = concat!("[`", stringify!($sphere), "`], no square root or division.")]
+        #[inline]
+        pub fn $blocks(o: $v, d: $v, centre: $v, radius: $t) -> bool {
+            let f = o - centre;
+            let b = -f.dot(d);
+            let v = f + d * b;
+            let disc = radius * radius - v.dot(v);
+            if disc.is_nan() || disc < 0.0 {
+                return false;
+            }
+            let c = f.dot(f) - radius * radius;
+            c < 0.0 || b > 0.0
+        }
+
+        /// Distance to the floor plane at `height`, or `None` for rays parallel to it or
+        /// pointing away (and beyond the largest finite distance).
+        #[inline]
+        pub fn $floor(o: $v, d: $v, height: $t) -> Option<$t> {
+            if d.y == 0.0 {
+                return None;
+            }
+            let t = (height - o.y) / d.y;
+            (t > 0.0 && t < <$t>::MAX).then_some(t)
+        }
+    };
+}
+
+intersect_impl!(f64, DVec3, sphere_root, sphere_ahead, floor_root);
+intersect_impl!(f32, Vec3, sphere_root_f32, sphere_ahead_f32, floor_root_f32);
+
 /// Nearest root of the ray-sphere quadratic with `t > 0`, or `None`.
 #[inline]
 pub fn intersect_sphere(ray: &Ray, centre: DVec3, radius: f64) -> Option<f64> {
-    let f = ray.origin - centre;
-    let b = -f.dot(ray.dir);
-    let v = f + b * ray.dir;
-    let disc = radius * radius - v.length_squared();
-    if disc < 0.0 || disc.is_nan() {
-        return None;
-    }
-    let c = f.length_squared() - radius * radius;
-    let q = b + disc.sqrt().copysign(b);
-    if q == 0.0 {
-        // Origin at the centre's plane with a tangent ray: both roots 0.
-        return None;
-    }
-    let (t0, t1) = {
-        let (a, b) = (c / q, q);
-        if a < b { (a, b) } else { (b, a) }
-    };
-    if t0 > 0.0 {
-        Some(t0)
-    } else if t1 > 0.0 {
-        Some(t1)
-    } else {
-        None
-    }
+    sphere_root(ray.origin, ray.dir, centre, radius)
 }
 
-/// Whether the ray meets the sphere at some `t > 0`, without computing where: the roots'
-/// product is `c = |f|^2 - r^2` and their sum `2 b`, so one is positive when `c < 0`
-/// (the origin is inside) or, otherwise, when `b > 0`. Same discriminant as
-/// [`intersect_sphere`], no square root or division.
+/// Whether the ray meets the sphere at some `t > 0` ([`sphere_ahead`]).
 #[inline]
 pub fn sphere_blocks(ray: &Ray, centre: DVec3, radius: f64) -> bool {
-    let f = ray.origin - centre;
-    let b = -f.dot(ray.dir);
-    let v = f + b * ray.dir;
-    let disc = radius * radius - v.length_squared();
-    if disc.is_nan() || disc < 0.0 {
-        return false;
-    }
-    let c = f.length_squared() - radius * radius;
-    c < 0.0 || b > 0.0
+    sphere_ahead(ray.origin, ray.dir, centre, radius)
 }
 
 /// Distance to the floor plane, or `None` for rays parallel to it or pointing away.
 #[inline]
 pub fn intersect_floor(ray: &Ray, height: f64) -> Option<f64> {
-    if ray.dir.y == 0.0 {
-        return None;
-    }
-    let t = (height - ray.origin.y) / ray.dir.y;
-    (t > 0.0 && t.is_finite()).then_some(t)
+    floor_root(ray.origin, ray.dir, height)
 }
 
 impl Geometry {
@@ -158,6 +187,30 @@ pub fn spawn_ray(hit: &Hit, dir: DVec3) -> Ray {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn both_widths_find_the_same_roots() {
+        for i in 0..1000 {
+            let t = f64::from(i);
+            let o = DVec3::new(3.0 * (t * 0.37).sin(), 0.5 + (t * 0.11).cos(), -4.0 + (t * 0.07).sin());
+            let d =
+                (DVec3::new(0.1, 0.4, 0.0) - o + DVec3::new((t * 0.3).sin(), 0.0, (t * 0.2).cos()) * 0.2).normalize();
+            let (c, r) = (DVec3::new(0.0, 0.4, 0.0), 0.4);
+            let wide = sphere_root(o, d, c, r);
+            let narrow = sphere_root_f32(o.as_vec3(), d.as_vec3(), c.as_vec3(), r as f32);
+            match (wide, narrow) {
+                (Some(a), Some(b)) => assert!((a - f64::from(b)).abs() < 1e-5 * a.max(1.0), "{a} {b}"),
+                (None, None) => {}
+                // Grazing rays may round to the other side of the tangent.
+                (a, b) => {
+                    assert!(sphere_ahead(o, d, c, r * 1.0001) && !sphere_ahead(o, d, c, r * 0.9999), "{a:?} {b:?}")
+                }
+            }
+            assert_eq!(sphere_ahead(o, d, c, r), wide.is_some());
+            let floor = (floor_root(o, d, 0.0), floor_root_f32(o.as_vec3(), d.as_vec3(), 0.0));
+            assert_eq!(floor.0.is_some(), floor.1.is_some());
+        }
+    }
 
     #[test]
     fn far_origin_hits_precisely() {

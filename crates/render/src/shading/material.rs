@@ -10,7 +10,7 @@
 
 use std::f64::consts::PI;
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use study::scene::Material;
 use study::seed::splitmix64;
 
@@ -103,36 +103,6 @@ impl Shader {
     }
 }
 
-fn smoothstep(e0: f64, e1: f64, x: f64) -> f64 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
-}
-
-/// Weight of an octave of `frequency` (cycles per unit) seen through `footprint`
-/// (units): 1 well below the Nyquist limit, fading to 0 at half a cycle per footprint.
-pub fn octave_weight(frequency: f64, footprint: f64) -> f64 {
-    1.0 - smoothstep(0.25, 0.5, frequency * footprint)
-}
-
-/// Sum of octaves of gradient noise, normalised by the total amplitude, with octaves the
-/// footprint cannot resolve faded to their mean (zero).
-pub fn filtered_noise(p: DVec3, base_frequency: f64, octaves: u32, seed: u32, footprint: f64) -> f64 {
-    let mut sum = 0.0;
-    let mut norm = 0.0;
-    let mut freq = base_frequency;
-    let mut amp = 1.0;
-    for k in 0..octaves {
-        norm += amp;
-        let w = octave_weight(freq, footprint);
-        if w > 0.0 {
-            sum += amp * w * gradient_noise(p * freq, seed.wrapping_add(k.wrapping_mul(0x9e37_79b9)));
-        }
-        freq *= 2.0;
-        amp *= 0.5;
-    }
-    if norm > 0.0 { sum / norm } else { 0.0 }
-}
-
 #[inline]
 pub(crate) fn lattice_hash(x: i64, y: i64, z: i64, seed: u32) -> u64 {
     splitmix64(
@@ -166,32 +136,80 @@ where
     }
 }
 
-#[inline]
-fn fade(t: f64) -> f64 {
-    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+/// One body for both widths: the f64 reference and the GPU kernels' f32 twin
+/// (`shading::gpu::radiance`, mirrored by `radiance.wgsl`, which keeps the lattice in i32
+/// and emulates the 64-bit hash with pairs of u32) run these same operations.
+macro_rules! noise_impl {
+    ($t:ty, $v:ty, $int:ty, $floor:path, $weight:ident, $noise:ident, $filtered:ident) => {
+        /// Weight of an octave of `frequency` (cycles per unit) seen through `footprint`
+        /// (units): 1 well below the Nyquist limit, fading to 0 at half a cycle per footprint.
+        pub fn $weight(frequency: $t, footprint: $t) -> $t {
+            let smoothstep = |e0: $t, e1: $t, x: $t| {
+                let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+                t * t * (3.0 - 2.0 * t)
+            };
+            1.0 - smoothstep(0.25, 0.5, frequency * footprint)
+        }
+
+        /// Sum of octaves of gradient noise, normalised by the total amplitude, with octaves
+        /// the footprint cannot resolve faded to their mean (zero).
+        pub fn $filtered(p: $v, base_frequency: $t, octaves: u32, seed: u32, footprint: $t) -> $t {
+            let mut sum = 0.0;
+            let mut norm = 0.0;
+            let mut freq = base_frequency;
+            let mut amp = 1.0;
+            for k in 0..octaves {
+                norm += amp;
+                let w = $weight(freq, footprint);
+                if w > 0.0 {
+                    sum += amp * w * $noise(p * freq, seed.wrapping_add(k.wrapping_mul(0x9e37_79b9)));
+                }
+                freq *= 2.0;
+                amp *= 0.5;
+            }
+            if norm > 0.0 { sum / norm } else { 0.0 }
+        }
+
+        /// 3D gradient noise of one octave, zero at lattice points, about [-1, 1].
+        pub fn $noise(p: $v, seed: u32) -> $t {
+            let fade = |t: $t| t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+            let cell = <$v>::new($floor(p.x), $floor(p.y), $floor(p.z));
+            let f = p - cell;
+            let (ix, iy, iz) = (cell.x as $int, cell.y as $int, cell.z as $int);
+            let (u, v, w) = (fade(f.x), fade(f.y), fade(f.z));
+            let corner = |dx: $int, dy: $int, dz: $int| {
+                let h = lattice_hash(i64::from(ix + dx), i64::from(iy + dy), i64::from(iz + dz), seed);
+                grad_dot(h, (f - <$v>::new(dx as $t, dy as $t, dz as $t)).to_array())
+            };
+            let lerp = |a: $t, b: $t, t: $t| a + (b - a) * t;
+            let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), u);
+            let x10 = lerp(corner(0, 1, 0), corner(1, 1, 0), u);
+            let x01 = lerp(corner(0, 0, 1), corner(1, 0, 1), u);
+            let x11 = lerp(corner(0, 1, 1), corner(1, 1, 1), u);
+            lerp(lerp(x00, x10, v), lerp(x01, x11, v), w)
+        }
+    };
 }
 
-/// 3D gradient noise of one octave, zero at lattice points, about [-1, 1].
-pub fn gradient_noise(p: DVec3, seed: u32) -> f64 {
-    let cell = DVec3::new(floor(p.x), floor(p.y), floor(p.z));
-    let f = p - cell;
-    let (ix, iy, iz) = (cell.x as i64, cell.y as i64, cell.z as i64);
-    let (u, v, w) = (fade(f.x), fade(f.y), fade(f.z));
-    let corner = |dx: i64, dy: i64, dz: i64| {
-        let h = lattice_hash(ix + dx, iy + dy, iz + dz, seed);
-        grad_dot(h, (f - DVec3::new(dx as f64, dy as f64, dz as f64)).to_array())
-    };
-    let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-    let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), u);
-    let x10 = lerp(corner(0, 1, 0), corner(1, 1, 0), u);
-    let x01 = lerp(corner(0, 0, 1), corner(1, 0, 1), u);
-    let x11 = lerp(corner(0, 1, 1), corner(1, 1, 1), u);
-    lerp(lerp(x00, x10, v), lerp(x01, x11, v), w)
-}
+noise_impl!(f64, DVec3, i64, floor, octave_weight, gradient_noise, filtered_noise);
+noise_impl!(f32, Vec3, i32, f32::floor, octave_weight_f32, gradient_noise_f32, filtered_noise_f32);
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn both_widths_of_the_noise_agree_to_f32_rounding() {
+        // Away from lattice planes, where the f32 cell can differ from the f64 one.
+        for i in 0..2000 {
+            let t = f64::from(i);
+            let p = DVec3::new((t * 0.377).sin() * 0.9, (t * 0.211).cos() * 0.9, (t * 0.123).sin() * 0.5);
+            let footprint = 0.002 + 0.02 * (t * 0.05).sin().abs();
+            let wide = filtered_noise(p, 4.0, 5, 7, footprint);
+            let narrow = filtered_noise_f32(p.as_vec3(), 4.0, 5, 7, footprint as f32);
+            assert!((wide - f64::from(narrow)).abs() < 2e-5, "{p}: {wide} {narrow}");
+        }
+    }
 
     #[test]
     fn checker_alternates_and_flat_ignores_position() {

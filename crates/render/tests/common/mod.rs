@@ -67,9 +67,9 @@ pub fn coverage_scene(speed: f64, shutter_fraction: f64, spp: u32) -> FrameScene
 
 /// The exact coverage of pixel `(x, y)` by the moving sphere over area and shutter time:
 /// the analytic rasterizer's closed form for the untessellated sphere
-/// (`render::analytic::sphere`), on a 24 x 24 lattice of points in the pixel.
+/// (`render::methods::analytic::sphere`), on a 24 x 24 lattice of points in the pixel.
 pub fn exact_coverage(s: &FrameScene, x: u32, y: u32) -> f64 {
-    render::analytic::sphere::pixel_coverage(s, 0, x, y, 24)
+    render::methods::analytic::sphere::pixel_coverage(s, 0, x, y, 24)
 }
 
 /// The built-in default environment at a small size.

@@ -2,8 +2,8 @@
 //! rasterizer (`render::measure::analytic`) on the design's M3-S3-T5 benchmark frame, with the
 //! average and largest number of intervals per pixel and the machine.
 
-use render::analytic::AnalyticParams;
 use render::measure::analytic::{BenchOptions, run as run_bench};
+use render::methods::analytic::AnalyticParams;
 
 use crate::cmd::BadInput;
 use crate::cmd::stimuli::load_design;
@@ -19,7 +19,7 @@ pub struct Args {
     #[arg(long, default_value_t = 8)]
     intervals: u32,
     /// Sphere segments around the equator.
-    #[arg(long, default_value_t = render::analytic::DEFAULT_TESSELLATION)]
+    #[arg(long, default_value_t = render::methods::analytic::DEFAULT_TESSELLATION)]
     tessellation: u32,
     /// Lighting samples per shading evaluation.
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..))]

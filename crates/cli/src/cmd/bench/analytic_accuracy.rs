@@ -10,10 +10,10 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use analysis::rasterizer::{DepthErrorFigure, TessellationFigure, TessellationPoint, write_figures};
-use render::analytic::geometry::VertexPaths;
 use render::measure::analytic_accuracy::{
     ShadowError, contact_shadow_error, depth_error_histogram, tessellation_error,
 };
+use render::methods::analytic::geometry::VertexPaths;
 use serde_json::json;
 
 use crate::cmd::BadInput;
@@ -27,7 +27,7 @@ pub struct Args {
     #[command(flatten)]
     size: super::FrameSize,
     /// Sphere segments of the depth histogram.
-    #[arg(long, default_value_t = render::analytic::DEFAULT_TESSELLATION)]
+    #[arg(long, default_value_t = render::methods::analytic::DEFAULT_TESSELLATION)]
     tessellation: u32,
     /// Tessellations whose coverage error is measured, comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = [8u32, 16, 32, 64, 128, 256])]
@@ -71,9 +71,11 @@ fn contact_shadows(design: &study::design::Design, args: &Args) -> anyhow::Resul
             (view.camera.width, view.camera.height) = (args.shadow_width, height);
         }
         let env = render::env::EnvironmentMap::from_lighting(&scene.lighting).map_err(|e| BadInput(e.to_string()))?;
-        render::analytic::check_motion(&scene).map_err(|e| BadInput(format!("--shadow-speeds {speed}: {e}")))?;
-        let traced = render::tracer::render_frame(&scene, &env);
-        let raster = render::analytic::render_frame(&scene, &env, &render::measure::analytic_accuracy::SHADOW_PARAMS)?;
+        render::methods::analytic::check_motion(&scene)
+            .map_err(|e| BadInput(format!("--shadow-speeds {speed}: {e}")))?;
+        let traced = render::methods::tracer::render_frame(&scene, &env);
+        let raster =
+            render::methods::analytic::render_frame(&scene, &env, &render::measure::analytic_accuracy::SHADOW_PARAMS)?;
         out.push(contact_shadow_error(&scene, speed, &traced.eyes[0], &raster.eyes[0]));
     }
     Ok(out)
@@ -81,7 +83,7 @@ fn contact_shadows(design: &study::design::Design, args: &Args) -> anyhow::Resul
 
 /// Runs the measurement.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    let max = render::analytic::MAX_TESSELLATION;
+    let max = render::methods::analytic::MAX_TESSELLATION;
     if let Some(bad) = args.tessellations.iter().chain([&args.tessellation]).find(|&&s| !(3..=max).contains(&s)) {
         return Err(BadInput(format!("--tessellation(s): {bad} is outside 3..={max}")).into());
     }

@@ -41,9 +41,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         DeviceArg::Auto => Some(gpu::AdapterChoice::HardwareOnly),
         DeviceArg::Gpu => Some(gpu::AdapterChoice::HardwareThenSoftware),
     };
-    let filters = match adapters.map(|a| gpu::acquire(a, &render::tracer::gpu::tracer_host::device_request())) {
+    let filters = match adapters.map(|a| gpu::acquire(a, &render::methods::tracer::host::device_request())) {
         None => None,
-        Some(Ok(ctx)) => Some(render::filters::GpuFilters::new(ctx)?),
+        Some(Ok(ctx)) => Some(render::methods::post_process::GpuFilters::new(ctx)?),
         Some(Err(_)) if matches!(args.device, DeviceArg::Auto) => None,
         Some(Err(e)) => return Err(BadInput(format!("--device gpu: {e}")).into()),
     };

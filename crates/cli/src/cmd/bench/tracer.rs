@@ -53,14 +53,14 @@ pub struct Args {
     cpu_spp: u32,
 }
 
-fn gpu_tracer(device: DeviceArg) -> anyhow::Result<Option<render::tracer::gpu::GpuTracer>> {
+fn gpu_tracer(device: DeviceArg) -> anyhow::Result<Option<render::methods::tracer::GpuTracer>> {
     let adapters = match device {
         DeviceArg::Cpu => return Ok(None),
         DeviceArg::Auto => gpu::AdapterChoice::HardwareOnly,
         DeviceArg::Gpu => gpu::AdapterChoice::HardwareThenSoftware,
     };
-    match gpu::acquire(adapters, &render::tracer::gpu::tracer_host::device_request()) {
-        Ok(ctx) => Ok(Some(render::tracer::gpu::GpuTracer::new(ctx)?)),
+    match gpu::acquire(adapters, &render::methods::tracer::host::device_request()) {
+        Ok(ctx) => Ok(Some(render::methods::tracer::GpuTracer::new(ctx)?)),
         Err(_) if matches!(device, DeviceArg::Auto) => Ok(None),
         Err(e) => Err(BadInput(format!("--device gpu: {e}")).into()),
     }

@@ -2,7 +2,7 @@
 //! parameters ([`FrameParams`], one storage struct, f32 and u32 only), the environment's
 //! tables as one u32 buffer ([`EnvTables`]), a batch of samples ([`Batch`]) and the
 //! kernel's specialisation ([`Specialisation`], its pipeline override constants). The CPU
-//! twin ([`super::tracer_twin`]) reads exactly the same values.
+//! twin ([`super::radiance`]) reads exactly the same values.
 //!
 //! Everything that needs f64 to be right is done here, in f64, and handed over as f32
 //! offsets small enough that f32 keeps them exact to well below a pixel: the sphere's centre
@@ -63,7 +63,7 @@ fn material_kind_of(material: &Material) -> u32 {
     }
 }
 
-/// One eye of one frame, as the kernel reads it (`struct FrameParams` in `tracer.wgsl`,
+/// One eye of one frame, as the kernel reads it (`struct FrameParams` in `radiance.wgsl`,
 /// field for field). Vectors are `[x, y, z, extra]` with the extra component named.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -155,7 +155,7 @@ pub struct FrameParams {
     pub pad: [u32; 1],
 }
 
-/// A range of sample indices, one dispatch (`struct Batch` in `tracer.wgsl`).
+/// A range of sample indices, one dispatch (`struct Batch` in `radiance.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Pod, Zeroable)]
 pub struct Batch {
@@ -167,7 +167,7 @@ pub struct Batch {
     pub pad: [u32; 2],
 }
 
-/// One pixel's accumulator (`struct Accum` in `tracer.wgsl`): the sum of its samples'
+/// One pixel's accumulator (`struct Accum` in `radiance.wgsl`): the sum of its samples'
 /// radiance, each divided by the samples per pixel, and the count of discarded samples.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]

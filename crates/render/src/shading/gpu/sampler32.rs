@@ -1,6 +1,6 @@
 //! The u32-only sampler of the GPU tracer: the padded, Owen-scrambled 2D Sobol sampler of
 //! [`crate::shading::sampler`] with every operation on u32, because WGSL has no 64-bit
-//! integers. `shaders/sampler32.wgsl` is its twin and computes the same integer sample
+//! integers. `sampler32.wgsl` beside it is its twin and computes the same integer sample
 //! values bit for bit (`tests/sampler32_wgsl.rs`).
 //!
 //! The structure is the CPU sampler's: the same [`dim`] layout; 2D values are the first two

@@ -1,4 +1,4 @@
-//! The twin of `shaders/filters/common.wgsl`: the parameters every pass reads
+//! The twin of `common.wgsl`: the parameters every pass reads
 //! ([`PassParams`], the uniform buffer) and the functions the passes share, each named as its
 //! WGSL function and written with the same f32 operations in the same order (no fused
 //! multiply-adds, no built-ins whose precision WGSL leaves open: `length`, `normalize`,

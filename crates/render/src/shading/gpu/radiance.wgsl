@@ -1,8 +1,10 @@
-// The distribution ray tracer's kernel: one invocation per pixel adds one batch of that
-// pixel's samples to its accumulator. The CPU twin is `render::tracer::gpu::cpu` (same
-// function names, same operations in the same order); read its docs for what differs
-// from the f64 tracer and why. Specialised per frame by the override constants
-// TIME_SAMPLING and MATERIAL (0 flat, 1 checker, 2 noise).
+// The f32 shading layer on the GPU: the frame's parameters and buffers, the scene's
+// geometry, the environment's tables and importance sampling, the materials and the
+// integrator (`radiance`, `radiance_from`). The tracer's kernel (`trace_batch.wgsl`) and the
+// analytic kernel (`analytic_pixel.wgsl`) include it. The CPU twin is
+// `render::shading::gpu::radiance` (same function names, same operations in the same order);
+// read its docs for what differs from the f64 tracer and why. Specialised per frame by the
+// override constants TIME_SAMPLING and MATERIAL (0 flat, 1 checker, 2 noise).
 //! include sampler32
 
 override TIME_SAMPLING: bool = true;
@@ -499,7 +501,7 @@ fn widen(x: i32) -> vec2<u32> {
     return vec2<u32>(hi, bitcast<u32>(x));
 }
 
-// `render::tracer::material::lattice_hash(x, y, z, seed) % 12`.
+// `render::shading::material::lattice_hash(x, y, z, seed) % 12`.
 fn lattice_gradient(x: i32, y: i32, z: i32, seed: u32) -> u32 {
     let hx = mul64(widen(x), vec2<u32>(0u, 0x8da6b343u));
     let hy = mul64(widen(y), vec2<u32>(0u, 0xd8163841u));
@@ -708,52 +710,4 @@ fn radiance_from(s: SphereAt, seed: u32, index: u32, camera_dir: vec3<f32>, firs
         hit = intersect(o, d, leave_skip, s, floor_h);
     }
     return l;
-}
-
-fn sphere_at(u: f32) -> SphereAt {
-    var s = SphereAt(params.centre_open.xyz, params.centre_open.w, vec2<f32>(0.0, 1.0));
-    if TIME_SAMPLING {
-        s.centre += params.travel.xyz * u;
-        if u >= params.travel.w {
-            s.centre += params.wrap_jump.xyz;
-        }
-        if MATERIAL != 0u {
-            s.spin_sc = sin_cos_turns(-params.spin.w * u / TAU);
-        }
-    }
-    return s;
-}
-
-@compute @workgroup_size(8, 8, 1)
-fn trace_batch(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let x = gid.x;
-    let y = gid.y;
-    if x >= params.width || y >= params.height {
-        return;
-    }
-    let pixel = y * params.width + x;
-    let seed = sampler32_pixel_seed(params.eye_seed, pixel);
-    let inv_spp = params.floor_albedo.w;
-    let corner = params.cam_corner.xyz;
-    let sx = params.cam_step_x.xyz;
-    let sy = params.cam_step_y.xyz;
-    var acc = accum[pixel];
-    var sum = vec3<f32>(acc.r, acc.g, acc.b);
-    for (var i = 0u; i < batch.count; i++) {
-        let index = batch.first_sample + i;
-        let u = sampler32_2d(seed, index, DIM_PIXEL);
-        let dir = normalize3(corner + sx * (f32(x) + u.x) + sy * (f32(y) + u.y));
-        var t = 0.0;
-        if TIME_SAMPLING {
-            t = sampler32_1d(seed, index, DIM_TIME);
-        }
-        let s = sphere_at(t);
-        let l = radiance(s, seed, index, dir);
-        if is_finite3(l) {
-            sum += l * inv_spp;
-        } else {
-            acc.nonfinite += 1u;
-        }
-    }
-    accum[pixel] = Accum(sum.x, sum.y, sum.z, acc.nonfinite);
 }

@@ -1,61 +1,20 @@
-//! The analytic motion blur rasterizer of Gribel, Doggett and Akenine-Moeller (2010): for
-//! each pixel's sample point, the exact time intervals in which each moving triangle covers
-//! it, instead of sampled instants; visibility has no noise, only shading does.
-//!
-//! The pipeline, one file each: [`geometry`] (the study scene as triangles moving linearly
-//! over the shutter, the sphere tessellated from the settings, the floor clipped to the near
-//! plane), [`edge`] (time-dependent edge equations `e(t) = alpha t^2 + beta t + gamma`, the
-//! visibility function as disjoint intervals, the cubic-rational depth of Eq. 15 and its
-//! linear approximation), [`interval`] (per-pixel lists sorted by start time, opaque
-//! insertion with the `LESS_EQUAL` rules, the oracle compression of Eq. 19 and the merge of
-//! Eq. 20), [`resolve`] (the sweep over time, opaque and translucent), [`shade`] (one
-//! evaluation per interval at its midpoint with the tracer's material and lighting code),
-//! [`frame`] (tiles in parallel, deterministic), and [`bench`] (milliseconds per frame).
-//! [`gpu`] is the same rasterizer as a WGSL compute kernel (the paper's future work), with
-//! its f32 CPU twin; `render::Renderer` uses it wherever a GPU is open.
-//! [`sphere`] is the exact visibility of the untessellated moving sphere, the closed form the
-//! triangles approximate. [`crate::measure::analytic_accuracy`] holds the measurements the tests check and
-//! `blurlab bench analytic-accuracy` draws (the depth approximation's error histogram of the
-//! paper's Figure 10, the tessellation's coverage error, the contact shadow per speed).
-//!
-//! Limits, measured rather than hidden: shading is one evaluation per interval at its
-//! temporal midpoint, as the paper specifies, and the floor's interval spans the whole
-//! shutter, so the sphere's moving contact shadow is shaded as it stands mid-shutter: a
-//! sharp dark ellipse where the tracer shows a smear (visible from about 30 deg/s on the
-//! study frame; [`crate::measure::analytic_accuracy::contact_shadow_error`], `analysis/analytic/contact-shadow.csv`).
-//! The triangles move in one straight line per exposure: a sphere that travels its path's
-//! whole wrap length within one shutter is refused ([`check_motion`]) on every device.
-//!
-//! Settings (`study::method::MethodSpec`): `intervals`, the per-pixel budget (4-64, default
-//! [`DEFAULT_INTERVALS`]); `tessellation`, the sphere's segments around its equator (at
-//! least 3, default [`DEFAULT_TESSELLATION`]); `lighting_samples` per shading evaluation
-//! (default: the frame's samples per pixel, so the A levels keep their meaning);
-//! `supersampling`, sample points per pixel along each axis ([`supersample`]; default 1, the
-//! paper's one point at the pixel's centre).
-
-pub mod edge;
-pub mod frame;
-pub mod geometry;
-pub mod gpu;
-pub mod interval;
-pub mod resolve;
-pub mod shade;
-pub mod sphere;
-pub mod supersample;
+//! The analytic rasterizer's f64 CPU reference: [`render_frame`] over the pipeline of the
+//! sibling modules, the settings it reads ([`AnalyticParams`]) and the motion it refuses
+//! ([`check_motion`]).
 
 use glam::DVec3;
 use study::method::AnalyticSettings;
 use study::scene::FrameScene;
 
+use super::frame::{RasterStats, render_image};
+use super::geometry::{CameraFrame, scene_triangles};
+use super::interval::SEARCH_RANGE_OPAQUE;
+use super::shade::Shading;
 use crate::env::EnvironmentMap;
 use crate::io::LinearImage;
 use crate::shading::camera::CameraRays;
 use crate::shading::integrator::PathTracer;
 use crate::shading::material::Shader;
-use frame::{RasterStats, render_image};
-use geometry::{CameraFrame, scene_triangles};
-use interval::SEARCH_RANGE_OPAQUE;
-use shade::Shading;
 
 /// The settings' defaults and ranges: one home, the study model's.
 pub use study::method::{DEFAULT_INTERVALS, DEFAULT_TESSELLATION, INTERVALS_RANGE, SUPERSAMPLING_RANGE};
@@ -188,7 +147,7 @@ pub fn render_frame(
     let mut eyes = Vec::with_capacity(scene.views.len());
     let mut stats = RasterStats::default();
     let n = params.supersampling;
-    let scaled = supersample::scaled(scene, n);
+    let scaled = super::supersample::scaled(scene, n);
     let scene = &*scaled;
     for view in &scene.views {
         let cam = &view.camera;
@@ -216,7 +175,7 @@ pub fn render_frame(
             |s| shading.background(s),
         );
         stats.add(&st);
-        eyes.push(supersample::downsample(&LinearImage { width: cam.width, height: cam.height, pixels }, n));
+        eyes.push(super::supersample::downsample(&LinearImage { width: cam.width, height: cam.height, pixels }, n));
     }
     Ok(AnalyticFrame { eyes, lighting_samples: stats.shaded * u64::from(lighting), stats, gpu_seconds: None })
 }

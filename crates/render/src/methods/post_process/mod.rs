@@ -1,15 +1,25 @@
-//! What the two post-process filters share as methods: the tracer's instant at the
-//! shutter's centre, its G-buffer (`crate::gbuffer`), and their GPU host
-//! (`crate::filters::GpuFilters`).
+//! What the two post-process filters (`super::mcguire`, `super::guertin`) share: the
+//! tracer's instant at the shutter's centre and its G-buffer ([`gbuffer`]); the passes
+//! before the gather (`tiles.wgsl` and its twin [`tiles`]); the functions every pass uses
+//! (`common.wgsl` and [`common`]); the G-buffer type, the errors and the non-finite rules
+//! ([`filter`]); their GPU host ([`host`]: [`GpuFilters`]); and the generic method
+//! [`PostProcess`] each filter registers as.
+
+pub mod common;
+pub mod filter;
+pub mod gbuffer;
+pub mod host;
+pub mod tiles;
 
 use std::marker::PhantomData;
 
+pub use filter::{FilterError, GBuffer, MAX_SAMPLES, MAX_TILE, SKY_DEPTH, check_gbuffer, nonfinite_pixels};
+use gbuffer::{FloorMotion, gbuffers};
+pub use host::{FilteredImage, GpuFilters};
 use study::scene::FrameScene;
 
 use super::tracer::trace;
 use super::{GpuHosts, RenderMethod};
-use crate::filters::{FilterError, FilteredImage, GBuffer, GpuFilters};
-use crate::gbuffer::{FloorMotion, gbuffers};
 use crate::io::LinearImage;
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
 use crate::renderer::{DeviceError, Renderer, Submitted, add_seconds};
@@ -97,7 +107,7 @@ fn render_filtered(
     let eyes = if scene.needs_time_sampling() {
         let mut eyes = Vec::with_capacity(scene.views.len());
         for (g, view) in gbuffers(scene, traced.eyes, floor).iter().zip(&scene.views) {
-            nonfinite_samples += crate::filters::nonfinite_pixels(g);
+            nonfinite_samples += crate::methods::post_process::nonfinite_pixels(g);
             let (color, seconds) = filter(g, crate::method::filter_seed(view.seed), renderer.gpu_host::<GpuFilters>())
                 .map_err(filter_error)?;
             gpu_seconds = add_seconds(gpu_seconds, seconds);

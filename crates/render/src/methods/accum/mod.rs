@@ -1,5 +1,8 @@
 //! The accumulation buffer as a method: the mean of instantaneous tracer renders over the
-//! shutter (`crate::accum`), on whichever device traces.
+//! shutter ([`instants`]), on whichever device traces. It has no kernel of its own: each
+//! instant is the tracer's.
+
+pub mod instants;
 
 use study::method::AccumSettings;
 use study::scene::FrameScene;
@@ -26,7 +29,7 @@ impl RenderMethod for Accum {
         scene: &FrameScene,
         _: &[u32],
     ) -> Result<Submitted<'r>, RenderError> {
-        let instants = crate::accum::instant_scenes(scene, settings);
+        let instants = instants::instant_scenes(scene, settings);
         let mut images = Vec::with_capacity(instants.len());
         let (mut nonfinite_samples, mut camera_samples, mut gpu_seconds) = (0, 0, None);
         for instant in &instants {
@@ -37,7 +40,7 @@ impl RenderMethod for Accum {
             images.push(traced.eyes);
         }
         Ok(Submitted::Ready(vec![RenderedFrame {
-            image: compose_eyes(crate::accum::average(&images)),
+            image: compose_eyes(instants::average(&images)),
             nonfinite_samples,
             camera_samples,
             gpu_seconds,

@@ -1,16 +1,6 @@
-//! The GPU distribution ray tracer: the kernel `shaders/tracer.wgsl` and everything around
-//! it.
-//!
-//! - `crate::shading::gpu`: what the kernel reads (frame parameters, environment tables,
-//!   batches, its specialisation by pipeline override constants), the u32 sampler and the
-//!   kernel's f32 twin, shared with the analytic kernel.
-//! - [`tracer_host`]: the host side, [`GpuTracer`].
-//! - [`assembler`]: the WGSL assembler that knows the render crate's shader includes.
-
-pub mod tracer_host;
-
-pub use crate::shading::gpu::params::Specialisation;
-pub use tracer_host::{GpuEnvironment, GpuFrame, GpuPrefix, GpuTracer, GpuTracerError, PendingFrame};
+//! The WGSL assembler that knows the render crate's shader includes: the shading layer's
+//! `sampler32.wgsl` and `radiance.wgsl`, which the methods' kernels include with
+//! `//! include NAME`.
 
 use ::gpu::WgslAssembler;
 
@@ -19,13 +9,16 @@ use crate::shading::sampler::dim;
 /// The render crate's WGSL include files: `(name, text)`, included with `//! include NAME`.
 pub const INCLUDES: &[(&str, &str)] = &[
     // The u32 Owen-scrambled Sobol sampler, the WGSL twin of `sampler32`.
-    ("sampler32", include_str!("../../../shaders/sampler32.wgsl")),
+    ("sampler32", include_str!("sampler32.wgsl")),
+    // The f32 shading layer (geometry, environment, materials, integrator), the WGSL twin
+    // of `radiance`.
+    ("radiance", include_str!("radiance.wgsl")),
 ];
 
 /// A WGSL assembler with the gpu crate's shared includes, the render crate's [`INCLUDES`]
 /// and the sampling dimensions of [`dim`] declared as `DIM_PIXEL`, `DIM_TIME`,
 /// `DIM_BOUNCE_BASE`, `DIM_PER_BOUNCE`, `DIM_LIGHT`, `DIM_BSDF` and `DIM_ROULETTE`
-/// (`sampler32.wgsl` needs `DIM_PIXEL`), so the shaders and the CPU share one layout.
+/// (`sampler32.wgsl` needs `DIM_PIXEL`, `radiance.wgsl` the rest), so the shaders and the CPU share one layout.
 pub fn assembler() -> WgslAssembler {
     let mut a = INCLUDES.iter().fold(WgslAssembler::new(), |a, &(name, text)| a.with_include(name, text));
     a.constant_u32("DIM_PIXEL", dim::PIXEL)

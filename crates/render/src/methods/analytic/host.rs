@@ -1,4 +1,4 @@
-//! The host of the analytic kernel: [`GpuAnalytic`] compiles `shaders/analytic.wgsl` (which
+//! The host of the analytic kernel: [`GpuAnalytic`] compiles `analytic_pixel.wgsl` (which
 //! includes the tracer's kernel for its integrator) once per specialisation and renders a
 //! frame's views. The per-pixel interval lists live in one storage buffer of `budget + 1`
 //! entries per pixel, beside each pixel's resumable state; an image whose lists would exceed
@@ -17,12 +17,13 @@ use gpu::wgpu::util::DeviceExt as _;
 use gpu::{GpuContext, GpuError, GpuInfo, TimingSource, wgpu};
 use study::scene::FrameScene;
 
-use super::{ANALYTIC_STREAM, GpuInterval, PixelStats, Prepared};
-use crate::analytic::frame::RasterStats;
-use crate::analytic::{AnalyticError, AnalyticFrame, AnalyticParams, supersample};
+use super::prepare::{ANALYTIC_STREAM, GpuInterval, PixelStats, Prepared};
 use crate::io::LinearImage;
+use crate::methods::analytic::frame::RasterStats;
+use crate::methods::analytic::{AnalyticError, AnalyticFrame, AnalyticParams, supersample};
+use crate::methods::tracer::GpuEnvironment;
+use crate::shading::gpu::assembler::assembler;
 use crate::shading::gpu::params::{ParamsError, Specialisation};
-use crate::tracer::gpu::{GpuEnvironment, assembler};
 
 /// The most bytes of interval lists one band uses (64 MiB: a 640-pixel row at a budget of 8
 /// is 184 KiB, so the study's frames are one band up to a budget of 11).
@@ -81,11 +82,11 @@ pub struct GpuAnalytic {
     pipelines: Mutex<HashMap<(Specialisation, bool), wgpu::ComputePipeline>>,
 }
 
-/// The assembled kernel: `analytic.wgsl` with the tracer's kernel and sampler included.
+/// The assembled kernel: `analytic_pixel.wgsl` with the shading layer (`radiance.wgsl`) and the sampler included.
 pub fn kernel_source() -> Result<String, GpuError> {
-    let mut a = assembler().with_include("tracer", include_str!("../../../shaders/tracer.wgsl"));
-    a.constant_u32("ANALYTIC_STREAM", ANALYTIC_STREAM).constant_u32("ANALYTIC_TILE", super::TILE);
-    a.assemble("analytic.wgsl", include_str!("../../../shaders/analytic.wgsl"))
+    let mut a = assembler();
+    a.constant_u32("ANALYTIC_STREAM", ANALYTIC_STREAM).constant_u32("ANALYTIC_TILE", super::prepare::TILE);
+    a.assemble("analytic_pixel.wgsl", include_str!("analytic_pixel.wgsl"))
 }
 
 /// Sums the per-pixel counts into the CPU rasterizer's [`RasterStats`].
@@ -106,9 +107,9 @@ impl GpuAnalytic {
     /// Validates and compiles the kernel on `ctx`'s device.
     pub fn new(ctx: GpuContext) -> Result<Self, GpuError> {
         let source = kernel_source()?;
-        gpu::validate_wgsl("analytic.wgsl", &source)?;
+        gpu::validate_wgsl("analytic_pixel.wgsl", &source)?;
         let module = ctx.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("analytic.wgsl"),
+            label: Some("analytic_pixel.wgsl"),
             source: wgpu::ShaderSource::Wgsl(source.into()),
         });
         let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
@@ -182,7 +183,7 @@ impl GpuAnalytic {
         params: &AnalyticParams,
     ) -> Result<AnalyticFrame, GpuAnalyticError> {
         params.check()?;
-        crate::analytic::check_motion(scene)?;
+        crate::methods::analytic::check_motion(scene)?;
         let spec = Specialisation::of(scene);
         let mut eyes = Vec::with_capacity(scene.views.len());
         let mut stats = RasterStats::default();
@@ -250,8 +251,8 @@ impl GpuAnalytic {
         };
         let frame = init("frame params", bytemuck::bytes_of(&prepared.frame), wgpu::BufferUsages::STORAGE);
         // A binding may not be empty: a frame with no triangle still binds one (unread).
-        let placeholder = [super::GpuTriangle::default()];
-        let tris: &[super::GpuTriangle] =
+        let placeholder = [super::prepare::GpuTriangle::default()];
+        let tris: &[super::prepare::GpuTriangle] =
             if prepared.triangles.is_empty() { &placeholder } else { &prepared.triangles };
         let triangles = init("triangles", bytemuck::cast_slice(tris), wgpu::BufferUsages::STORAGE);
         let bins = init("tile bins", bytemuck::cast_slice(&prepared.bins), wgpu::BufferUsages::STORAGE);
@@ -295,7 +296,14 @@ impl GpuAnalytic {
             let rows = band.min(h - first_row);
             let mut pass_index = 0;
             loop {
-                let p = super::RasterParams { first_row, band_rows: rows, pass_index, steps, light_chunk, ..raster };
+                let p = super::prepare::RasterParams {
+                    first_row,
+                    band_rows: rows,
+                    pass_index,
+                    steps,
+                    light_chunk,
+                    ..raster
+                };
                 self.ctx.queue.write_buffer(&uniform, 0, bytemuck::bytes_of(&p));
                 self.ctx.queue.write_buffer(&progress, 0, &[0; 8]);
                 let timing = timer.compute_pass("analytic rasterizer", |pass| {

@@ -18,8 +18,8 @@
 use glam::{DVec2, DVec3};
 use study::scene::{Camera, FrameScene};
 
-use crate::filters::{GBuffer, SKY_DEPTH};
 use crate::io::LinearImage;
+use crate::methods::post_process::{GBuffer, SKY_DEPTH};
 use crate::numeric::solve_quadratic;
 
 /// The share of a floor point's cosine-weighted sky that the sphere must hide for the point to

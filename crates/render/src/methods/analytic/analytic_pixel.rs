@@ -1,22 +1,22 @@
-//! The CPU twin of `shaders/analytic.wgsl`, in f32: [`analytic_pixel`] is the kernel's entry
+//! The CPU twin of `analytic_pixel.wgsl`, in f32: [`analytic_pixel`] is the kernel's entry
 //! point for one pixel, and every WGSL function has a Rust function of the same name with
 //! the same operations in the same order (the tracer's integrator is its own twin,
-//! `crate::shading::gpu::tracer_twin::radiance_from`). The interval list is a `Vec` instead of a
+//! `crate::shading::gpu::radiance::radiance_from`). The interval list is a `Vec` instead of a
 //! slice of the storage buffer; its length never exceeds the budget plus one, as there.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use glam::{Vec2, Vec3};
 
-use super::{ANALYTIC_STREAM, GpuInterval, GpuTriangle, PixelStats, Prepared, RasterParams};
-use crate::analytic::interval::ORACLE_H;
+use super::prepare::{ANALYTIC_STREAM, GpuInterval, GpuTriangle, PixelStats, Prepared, RasterParams};
 use crate::io::LinearImage;
+use crate::methods::analytic::interval::ORACLE_H;
 use crate::numeric::solve_quadratic_f32;
 use crate::shading::gpu::params::{FrameParams, Specialisation, material_kind};
-use crate::shading::gpu::sampler32::pixel_seed;
-use crate::shading::gpu::tracer_twin::{
+use crate::shading::gpu::radiance::{
     FLOOR, Hit, SPHERE, SphereAt, cross3, dot3, env_texel, is_finite3, normalize3, radiance_from, sin_cos_turns,
     texel_of, xyz,
 };
+use crate::shading::gpu::sampler32::pixel_seed;
 
 /// Disjoint visibility spans of one triangle at most.
 pub const MAX_SPANS: usize = 8;
@@ -512,7 +512,7 @@ pub fn analytic_pixel(k: &Kernel<'_>, x: u32, y: u32) -> ([f32; 4], PixelStats, 
     let sub = (y % n) * n + x % n;
     let mut list: Vec<GpuInterval> = Vec::with_capacity(ap.budget as usize + 1);
     let mut stats = PixelStats::default();
-    let tile = ((y / super::TILE) * ap.tiles_x + x / super::TILE) as usize;
+    let tile = ((y / super::prepare::TILE) * ap.tiles_x + x / super::prepare::TILE) as usize;
     for &index in &prep.bins[prep.bins[tile] as usize..prep.bins[tile + 1] as usize] {
         let tri = &prep.triangles[index as usize];
         let [x0, x1, y0, y1] = tri.bounds;
@@ -586,8 +586,8 @@ mod tests {
     use rand::{RngExt, SeedableRng};
 
     use super::*;
-    use crate::analytic::interval::Interval;
-    use crate::analytic::resolve::resolve_opaque;
+    use crate::methods::analytic::interval::Interval;
+    use crate::methods::analytic::resolve::resolve_opaque;
 
     fn to_f32(iv: &Interval) -> GpuInterval {
         let [r, g, b] = iv.color.map(|c| c as f32);
@@ -655,7 +655,7 @@ mod tests {
                 list64.push(Interval { ts, te, z, k, color, alpha: 1.0 });
             }
             let mut list32: Vec<GpuInterval> = list64.iter().map(to_f32).collect();
-            let merges64 = crate::analytic::interval::compress(&mut list64, 8, 3);
+            let merges64 = crate::methods::analytic::interval::compress(&mut list64, 8, 3);
             let merges32 = compress(&mut list32, 8, 3);
             assert_eq!(merges64 as u32, merges32, "case {case}");
             for (a, b) in list64.iter().zip(&list32) {

@@ -1,11 +1,13 @@
-//! The CPU twin of `shaders/tracer.wgsl`, in f32: [`trace_batch`] is the kernel's entry point
-//! `trace_batch` with the same arguments (the frame's parameters, a batch, the environment
-//! buffer, the accumulators, the specialisation; [`trace_pixel`] is its per-invocation body),
-//! and every WGSL function has a Rust function of the same name and the same operations in
-//! the same order, so GPU and twin agree to rounding, except the 64-bit emulation (`mul64`,
-//! `splitmix64`, `lattice_gradient` and their helpers), where the twin uses u64 itself
-//! ([`crate::shading::material::lattice_hash`]), and `copysign`, which is `f32::copysign` (`tests/tracer_gpu.rs` holds them to it per pixel). It is also the
-//! reference the kernel's f32 numerics are tested against the f64 tracer with.
+//! The CPU twin of `radiance.wgsl`, the f32 shading layer the tracer's kernel
+//! (`methods/tracer/trace_batch.wgsl`) and the analytic kernel include, in f32: every WGSL
+//! function has a Rust function of the same name and the same operations in the same order,
+//! so GPU and twin agree to rounding, except the 64-bit emulation (`mul64`, `splitmix64`,
+//! `lattice_gradient` and their helpers), where the twin uses u64 itself, and `copysign`,
+//! which is `f32::copysign` (`tests/tracer_gpu.rs` holds them to it per pixel). Where the
+//! f64 reference runs the same algorithm, the twin does not restate it but calls the one
+//! body both widths are generated from: the sphere's and the floor's roots
+//! ([`crate::shading::intersect`]) and the filtered gradient noise with its lattice hash
+//! ([`crate::shading::material`]).
 //!
 //! The integrator is the CPU tracer's ([`crate::shading::integrator`]): the same bounce
 //! structure, MIS, Russian roulette, cone footprints and sampling dimensions, with the u32
@@ -26,16 +28,14 @@
 
 use glam::Vec3;
 
-use study::scene::FrameScene;
-
-use super::params::{Accum, Batch, EnvTables, FrameParams, ParamsError, Specialisation, material_kind};
-use super::sampler32::{pixel_seed, sample_1d_bits, sample_2d_bits, to_unit};
-use crate::io::LinearImage;
-use crate::shading::material::{NOISE_GAIN, grad_dot, lattice_hash};
+use super::params::{FrameParams, Specialisation, material_kind};
+use super::sampler32::{sample_1d_bits, sample_2d_bits, to_unit};
+use crate::shading::intersect::{floor_root_f32, sphere_ahead_f32, sphere_root_f32};
+use crate::shading::material::{NOISE_GAIN, filtered_noise_f32};
 use crate::shading::sampler::dim;
 
 const PI: f32 = std::f32::consts::PI;
-const TAU: f32 = std::f32::consts::TAU;
+pub(crate) const TAU: f32 = std::f32::consts::TAU;
 const FRAC_1_PI: f32 = std::f32::consts::FRAC_1_PI;
 /// Spread of the cone a sample stands for after a diffuse bounce (the CPU tracer's).
 const DIFFUSE_SPREAD: f32 = 0.25;
@@ -129,49 +129,18 @@ pub(crate) struct Hit {
     pub(crate) surface: u32,
 }
 
+// The sphere's and the floor's roots are the f64 reference's own body in f32
+// (`crate::shading::intersect`); WGSL has no Option, so no root is -1.
 fn intersect_sphere(o: Vec3, d: Vec3, centre: Vec3, radius: f32) -> f32 {
-    // -1 for no hit. The cancellation-free form of the f64 tracer.
-    let f = o - centre;
-    let b = -dot3(f, d);
-    let v = f + d * b;
-    let disc = radius * radius - dot3(v, v);
-    if disc.is_nan() || disc < 0.0 {
-        return -1.0;
-    }
-    let c = dot3(f, f) - radius * radius;
-    let q = b + disc.sqrt().copysign(b);
-    if q == 0.0 {
-        return -1.0;
-    }
-    let (a0, a1) = (c / q, q);
-    let (t0, t1) = if a0 < a1 { (a0, a1) } else { (a1, a0) };
-    if t0 > 0.0 {
-        t0
-    } else if t1 > 0.0 {
-        t1
-    } else {
-        -1.0
-    }
+    sphere_root_f32(o, d, centre, radius).unwrap_or(-1.0)
 }
 
 fn sphere_blocks(o: Vec3, d: Vec3, centre: Vec3, radius: f32) -> bool {
-    let f = o - centre;
-    let b = -dot3(f, d);
-    let v = f + d * b;
-    let disc = radius * radius - dot3(v, v);
-    if disc.is_nan() || disc < 0.0 {
-        return false;
-    }
-    let c = dot3(f, f) - radius * radius;
-    c < 0.0 || b > 0.0
+    sphere_ahead_f32(o, d, centre, radius)
 }
 
 fn intersect_floor(o: Vec3, d: Vec3, height: f32) -> f32 {
-    if d.y == 0.0 {
-        return -1.0;
-    }
-    let t = (height - o.y) / d.y;
-    if t > 0.0 && t < f32::MAX { t } else { -1.0 }
+    floor_root_f32(o, d, height).unwrap_or(-1.0)
 }
 
 fn intersect(o: Vec3, d: Vec3, skip: u32, s: &SphereAt, floor_height: f32) -> Hit {
@@ -341,47 +310,10 @@ fn env_sample(p: &FrameParams, env: &[u32], u: [f32; 2]) -> (Vec3, f32, f32, u32
 
 // ---- Materials. ----
 
-fn smooth_step(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
-}
-
-fn fade(t: f32) -> f32 {
-    t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
-}
-
-fn gradient_noise(q: Vec3, seed: u32) -> f32 {
-    let cell = Vec3::new(q.x.floor(), q.y.floor(), q.z.floor());
-    let f = q - cell;
-    let (ix, iy, iz) = (cell.x as i32, cell.y as i32, cell.z as i32);
-    let (u, v, w) = (fade(f.x), fade(f.y), fade(f.z));
-    let corner = |dx: i32, dy: i32, dz: i32| {
-        let h = lattice_hash(i64::from(ix + dx), i64::from(iy + dy), i64::from(iz + dz), seed);
-        grad_dot(h, (f - Vec3::new(dx as f32, dy as f32, dz as f32)).to_array())
-    };
-    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-    let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), u);
-    let x10 = lerp(corner(0, 1, 0), corner(1, 1, 0), u);
-    let x01 = lerp(corner(0, 0, 1), corner(1, 0, 1), u);
-    let x11 = lerp(corner(0, 1, 1), corner(1, 1, 1), u);
-    lerp(lerp(x00, x10, v), lerp(x01, x11, v), w)
-}
-
+// The noise and its filtering are the f64 reference's own body in f32
+// (`crate::shading::material`).
 fn filtered_noise(q: Vec3, p: &FrameParams, footprint: f32) -> f32 {
-    let mut sum = 0.0;
-    let mut norm = 0.0;
-    let mut freq = p.albedo_a[3];
-    let mut amp = 1.0;
-    for k in 0..p.octaves {
-        norm += amp;
-        let w = 1.0 - smooth_step(0.25, 0.5, freq * footprint);
-        if w > 0.0 {
-            sum += amp * w * gradient_noise(q * freq, p.noise_seed.wrapping_add(k.wrapping_mul(0x9e37_79b9)));
-        }
-        freq *= 2.0;
-        amp *= 0.5;
-    }
-    if norm > 0.0 { sum / norm } else { 0.0 }
+    filtered_noise_f32(q, p.albedo_a[3], p.octaves, p.noise_seed, footprint)
 }
 
 /// The albedo of the sphere at `local` (its own frame, unit sphere).
@@ -436,12 +368,12 @@ fn cosine_sample(n: Vec3, u: [f32; 2]) -> (Vec3, f32) {
     (t * (r * cs) + bt * (r * sn) + n * z, z * FRAC_1_PI)
 }
 
-fn sample_2d(seed: u32, index: u32, d: u32) -> [f32; 2] {
+pub(crate) fn sample_2d(seed: u32, index: u32, d: u32) -> [f32; 2] {
     sample_2d_bits(seed, index, d).map(to_unit)
 }
 
 /// Radiance along a camera ray (the integrator of `crate::shading::integrator`, in f32).
-fn radiance(
+pub(crate) fn radiance(
     p: &FrameParams,
     spec: &Specialisation,
     env: &[u32],
@@ -548,92 +480,6 @@ pub(crate) fn radiance_from(
         hit = intersect(o, d, leave_skip, s, floor_h);
     }
     l
-}
-
-/// The sphere at the time of fraction `u` of the shutter.
-fn sphere_at(p: &FrameParams, spec: &Specialisation, u: f32) -> SphereAt {
-    let mut s = SphereAt { centre: xyz(p.centre_open), radius: p.centre_open[3], spin_sc: (0.0, 1.0) };
-    if spec.time_sampling {
-        s.centre += xyz(p.travel) * u;
-        if u >= p.travel[3] {
-            s.centre += xyz(p.wrap_jump);
-        }
-        if spec.material != material_kind::FLAT {
-            let (sn, cs) = sin_cos_turns(-p.spin[3] * u / TAU);
-            s.spin_sc = (sn, cs);
-        }
-    }
-    s
-}
-
-/// One pixel's samples of `batch`, added to `acc` (the kernel's per-invocation body).
-pub fn trace_pixel(
-    p: &FrameParams,
-    batch: &Batch,
-    env: &[u32],
-    spec: &Specialisation,
-    x: u32,
-    y: u32,
-    acc: &mut Accum,
-) {
-    let seed = pixel_seed(p.eye_seed, y * p.width + x);
-    let inv_spp = p.floor_albedo[3];
-    let (corner, sx, sy) = (xyz(p.cam_corner), xyz(p.cam_step_x), xyz(p.cam_step_y));
-    let mut sum = Vec3::from_array(acc.sum);
-    for i in 0..batch.count {
-        let index = batch.first_sample + i;
-        let u = sample_2d(seed, index, dim::PIXEL);
-        let dir = normalize3(corner + sx * (x as f32 + u[0]) + sy * (y as f32 + u[1]));
-        let t = if spec.time_sampling { to_unit(sample_1d_bits(seed, index, dim::TIME)) } else { 0.0 };
-        let s = sphere_at(p, spec, t);
-        let l = radiance(p, spec, env, &s, seed, index, dir);
-        if is_finite3(l) {
-            sum += l * inv_spp;
-        } else {
-            acc.nonfinite += 1;
-        }
-    }
-    acc.sum = sum.to_array();
-}
-
-/// The kernel's entry point `trace_batch` over the whole image: adds `batch`'s samples of
-/// every pixel to `accum` (one per pixel, row-major).
-pub fn trace_batch(p: &FrameParams, batch: &Batch, env: &[u32], accum: &mut [Accum], spec: &Specialisation) {
-    for y in 0..p.height {
-        for x in 0..p.width {
-            trace_pixel(p, batch, env, spec, x, y, &mut accum[(y * p.width + x) as usize]);
-        }
-    }
-}
-
-/// Renders every view of `scene` with the twin, the whole sample count as one batch (the
-/// same sums as the GPU's batches: each carries the pixel's f32 sum on): the images and the
-/// discarded samples. Rows run in parallel.
-pub fn render_frame(
-    scene: &FrameScene,
-    env: &EnvTables,
-    spec: &Specialisation,
-) -> Result<(Vec<LinearImage>, u64), ParamsError> {
-    use rayon::prelude::*;
-    let batch = Batch { first_sample: 0, count: scene.samples_per_pixel, pad: [0; 2] };
-    let mut eyes = Vec::new();
-    let mut nonfinite = 0;
-    for view in &scene.views {
-        let p = FrameParams::new(scene, view, env)?;
-        let mut accum = vec![Accum::default(); (p.width * p.height) as usize];
-        accum.par_chunks_mut(p.width as usize).enumerate().for_each(|(y, row)| {
-            for (x, acc) in row.iter_mut().enumerate() {
-                trace_pixel(&p, &batch, &env.words, spec, x as u32, y as u32, acc);
-            }
-        });
-        let mut img = LinearImage::new(p.width, p.height);
-        for (dst, a) in img.pixels.iter_mut().zip(&accum) {
-            *dst = a.sum;
-            nonfinite += u64::from(a.nonfinite);
-        }
-        eyes.push(img);
-    }
-    Ok((eyes, nonfinite))
 }
 
 #[cfg(test)]

@@ -1,16 +1,17 @@
-//! McGuire et al. 2012's gather, the twin of `shaders/filters/mcguire.wgsl`: each pixel
+//! McGuire et al. 2012's gather, the twin of `gather.wgsl` beside it: each pixel
 //! takes N jittered samples along its tile neighbourhood's dominant (NeighborMax) velocity
 //! and weights them by the three cases of the paper: a sample in front blurring over the
 //! pixel (its cone), the pixel's own blur revealing what is behind it (the pixel's cone),
 //! and both moving (the product of cylinders, twice).
 
-use super::common::{
+use crate::methods::post_process::common::{
     Gathered, HALF_PIXEL, OVERFLOW_SCALE, PassParams, cone, cylinder, dot2, hash_jitter, index, is_bad, is_bad3,
     length2, offset_pixel, soft_depth_compare, tile_index,
 };
 use rayon::prelude::*;
 
-use super::{FilterError, GBuffer, McGuireParams, check_gbuffer, tiles};
+use super::McGuireParams;
+use crate::methods::post_process::{FilterError, GBuffer, check_gbuffer, tiles};
 
 /// The gather of pixel (x, y): `color`, `depth` are the G-buffer's, `velocity` the encoded
 /// one and `neighbor_max` the plain NeighborMax. A pixel whose weighted mean overflows

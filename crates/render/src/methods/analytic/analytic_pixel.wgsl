@@ -4,12 +4,12 @@
 // them in the pixel's interval list (a fixed budget per pixel in a storage buffer) with the
 // opaque LESS_EQUAL insertion and the oracle compression, shades every kept interval once at
 // its temporal midpoint with the tracer's own integrator (`radiance_from`), and resolves the
-// list against the box shutter. The CPU twin is `render::analytic::gpu::cpu` (same function
-// names, same operations in the same order); the f64 rasterizer in `render::analytic` is the
+// list against the box shutter. The CPU twin is `render::methods::analytic::analytic_pixel` (same function
+// names, same operations in the same order); the f64 rasterizer in `render::methods::analytic` is the
 // reference both are tested against. Override constant SHADE: false writes coverage instead
 // of radiance (the sphere's in red, the floor's in green, no background), which the tests
 // compare with the f64 rasterizer without shading noise.
-//! include tracer
+//! include radiance
 //! include numeric
 
 override SHADE: bool = true;
@@ -105,7 +105,7 @@ const H3: f32 = 1.0;
 const H4: f32 = 100.0;
 const H5: f32 = 1.0;
 
-// ---- Edge equations and visibility (render::analytic::edge). ----
+// ---- Edge equations and visibility (render::methods::analytic::edge). ----
 
 fn edge_coeff(ti: u32, k: u32, j: u32) -> vec3<f32> {
     if k == 0u {
@@ -295,7 +295,7 @@ fn visibility(ti: u32, s: vec2<f32>) -> Spans {
     return vis;
 }
 
-// Depth at ts and the secant slope over [ts, te] (render::analytic::edge::linear_depth).
+// Depth at ts and the secant slope over [ts, te] (render::methods::analytic::edge::linear_depth).
 fn linear_depth(ti: u32, s: vec2<f32>, ts: f32, te: f32) -> vec2<f32> {
     let mid = depth_at_time(ti, s, 0.5 * (ts + te));
     var z0 = depth_at_time(ti, s, ts);
@@ -312,7 +312,7 @@ fn linear_depth(ti: u32, s: vec2<f32>, ts: f32, te: f32) -> vec2<f32> {
     return vec2<f32>(z0, 0.0);
 }
 
-// ---- Interval lists (render::analytic::interval). ----
+// ---- Interval lists (render::methods::analytic::interval). ----
 
 fn iv_depth(iv: Interval, t: f32) -> f32 {
     return iv.z + iv.k * (t - iv.ts);
@@ -436,7 +436,7 @@ fn compress(list: ptr<function, List>) -> u32 {
 }
 
 // ---- Resolve: each entry's share of the shutter where it is the nearest (the sweep of
-// render::analytic::resolve, per entry: an entry is hidden where a later entry is as near or
+// render::methods::analytic::resolve, per entry: an entry is hidden where a later entry is as near or
 // an earlier one nearer). ----
 
 fn resolve(list: List) -> vec4<f32> {
@@ -499,7 +499,7 @@ fn resolve(list: List) -> vec4<f32> {
     return vec4<f32>(sum, covered);
 }
 
-// ---- Shading (render::analytic::shade). ----
+// ---- Shading (render::methods::analytic::shade). ----
 
 // The sphere at fraction u of the shutter, moving in a straight line (the triangles'
 // assumption: no wrap inside one exposure).
@@ -719,7 +719,7 @@ fn analytic_pixel(@builtin(global_invocation_id) gid: vec3<u32>) {
                 var scaled = st.sum.w != 0.0;
                 // A sphere point facing away from the ray (a midpoint off its triangle) would
                 // be shaded from the sphere's inside, where no light arrives and no path
-                // escapes: zero, without bouncing to max_bounces (render::analytic::shade).
+                // escapes: zero, without bouncing to max_bounces (render::methods::analytic::shade).
                 if from_inside(sp) {
                     end = ap.lighting;
                 }

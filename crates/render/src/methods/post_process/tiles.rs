@@ -1,4 +1,4 @@
-//! The passes before the gather, twins of `shaders/filters/tiles.wgsl`: the velocity
+//! The passes before the gather, twins of `tiles.wgsl`: the velocity
 //! encoding, TileMax (separably, rows then columns), NeighborMax (McGuire et al. 2012's 3x3
 //! maximum and Guertin et al. 2014's with off-axis culling) and Guertin's tile variance. Each
 //! function runs one WGSL entry point of the same name over the whole image (the entry point

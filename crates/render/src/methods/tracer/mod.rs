@@ -1,8 +1,16 @@
-//! The distribution ray tracer as a method: the reference (`crate::tracer`) on the CPU, its
-//! WGSL kernel (`crate::tracer::gpu`) on a GPU. Its host, [`TracerHost`], is also the shared
-//! shading device of the methods built on traced images (the accumulation buffer, the
-//! post-process filters' G-buffer, the analytic rasterizer's environment).
+//! The distribution ray tracer as a method: the f64 reference ([`reference`]) on the CPU,
+//! its WGSL kernel (`trace_batch.wgsl`, with its f32 CPU twin [`trace_batch`]) on a GPU
+//! through its host ([`host`]: [`GpuTracer`]). Both shade with the shading layer
+//! (`crate::shading`). The tracer's host, [`TracerHost`], is also the shared shading device
+//! of the methods built on traced images (the accumulation buffer, the post-process
+//! filters' G-buffer, the analytic rasterizer's environment).
 
+pub mod host;
+pub mod reference;
+pub mod trace_batch;
+
+pub use host::{GpuEnvironment, GpuFrame, GpuPrefix, GpuTracer, GpuTracerError, PendingFrame};
+pub use reference::{FrameOutput, FrameSetup, render_frame, render_frame_nested};
 use study::method::TracerSettings;
 use study::scene::FrameScene;
 
@@ -10,7 +18,6 @@ use super::{GpuHosts, RenderMethod};
 use crate::io::LinearImage;
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
 use crate::renderer::{DeviceError, Renderer, Submitted};
-use crate::tracer::gpu::{GpuEnvironment, GpuTracer, GpuTracerError};
 
 /// The GPU tracer with the renderer's environment map uploaded.
 pub struct TracerHost {
@@ -59,7 +66,7 @@ pub(crate) fn trace(renderer: &Renderer<'_>, scene: &FrameScene) -> Result<Trace
             }
         }
         None => {
-            let f = crate::tracer::render_frame(scene, renderer.env());
+            let f = crate::methods::tracer::render_frame(scene, renderer.env());
             Traced {
                 eyes: f.eyes,
                 nonfinite_samples: f.nonfinite_samples,
@@ -91,7 +98,7 @@ impl RenderMethod for Tracer {
         match renderer.gpu_host::<TracerHost>() {
             Some(g) => g.tracer.submit_nested(scene, &g.env, checkpoints).map(Submitted::Gpu).map_err(tracer_error),
             None => Ok(Submitted::Ready(
-                crate::tracer::render_frame_nested(scene, renderer.env(), checkpoints)
+                crate::methods::tracer::render_frame_nested(scene, renderer.env(), checkpoints)
                     .into_iter()
                     .map(|o| RenderedFrame {
                         image: compose_eyes(o.eyes),

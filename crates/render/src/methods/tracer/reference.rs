@@ -1,4 +1,4 @@
-//! The distribution (Monte Carlo) ray tracer: the CPU reference renderer.
+//! The distribution (Monte Carlo) ray tracer's CPU reference, in f64.
 //!
 //! [`render_frame`] renders every camera of a [`FrameScene`]. Each camera sample draws a
 //! position in its pixel (box filter), a time in the open shutter (box shutter filter) and
@@ -10,8 +10,6 @@
 //! The per-frame setup ([`FrameSetup`]) decides what needs simulating: a frame with a
 //! closed shutter or no motion samples no time dimension (the sphere is placed once), and
 //! a flat material evaluates no texture.
-
-pub mod gpu;
 
 use glam::{DQuat, DVec2, DVec3};
 use rayon::prelude::*;

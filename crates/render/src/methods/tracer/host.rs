@@ -1,4 +1,4 @@
-//! The GPU tracer's host side: [`GpuTracer`] compiles `shaders/tracer.wgsl` once per
+//! The GPU tracer's host side: [`GpuTracer`] compiles `trace_batch.wgsl` once per
 //! [`Specialisation`] (pipeline override constants), uploads an environment once
 //! ([`GpuEnvironment`]) and renders a frame's eyes as batches of samples, one dispatch
 //! each, accumulated in a storage buffer.
@@ -147,7 +147,7 @@ pub fn device_request() -> gpu::DeviceRequest {
 
 /// The assembled kernel source (sampler included, sampling dimensions declared).
 pub fn kernel_source() -> Result<String, GpuError> {
-    super::assembler().assemble("tracer.wgsl", include_str!("../../../shaders/tracer.wgsl"))
+    crate::shading::gpu::assembler::assembler().assemble("trace_batch.wgsl", include_str!("trace_batch.wgsl"))
 }
 
 fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -167,10 +167,10 @@ impl GpuTracer {
     /// Compiles the kernel for `ctx`'s device.
     pub fn new(ctx: GpuContext) -> Result<Self, GpuError> {
         let source = kernel_source()?;
-        gpu::validate_wgsl("tracer.wgsl", &source)?;
+        gpu::validate_wgsl("trace_batch.wgsl", &source)?;
         let device = &ctx.device;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("tracer.wgsl"),
+            label: Some("trace_batch.wgsl"),
             source: wgpu::ShaderSource::Wgsl(source.into()),
         });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

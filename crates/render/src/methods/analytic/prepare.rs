@@ -1,23 +1,20 @@
-//! The analytic rasterizer on the GPU: the kernel `shaders/analytic.wgsl` (one invocation
+//! The analytic rasterizer on the GPU: the kernel `analytic_pixel.wgsl` (one invocation
 //! per pixel, the pixel's interval list in a storage buffer with a fixed budget), its f32 CPU
-//! twin [`analytic_twin`], and the host [`analytic_host::GpuAnalytic`].
+//! twin [`super::analytic_pixel`], and the host [`super::host::GpuAnalytic`] read.
 //!
 //! What the kernel reads is prepared here, once per view, by the same code for the GPU and
 //! the twin ([`Prepared::new`]): the tracer kernel's [`FrameParams`] (camera, sphere,
-//! materials, environment: the kernel includes `tracer.wgsl` and shades with its integrator),
+//! materials, environment: the kernel includes the shading layer's `radiance.wgsl` and shades with its integrator),
 //! the rasterizer's [`RasterParams`], the moving triangles set up in f64 by
 //! [`TriangleSetup`] and rounded once to f32 ([`GpuTriangle`]: rounding is symmetric, so an
 //! edge shared with reversed vertices still negates exactly), and the [`TILE`]-pixel tile bins.
 //!
-//! Differences from the f64 rasterizer ([`crate::analytic::frame`]), all forced by f32 and
+//! Differences from the f64 rasterizer ([`crate::methods::analytic::frame`]), all forced by f32 and
 //! WGSL and all measured by `tests/analytic_gpu.rs`: arithmetic is f32; the resolve computes,
 //! for each entry, the part of its span where no other entry is nearer (an earlier entry
 //! must be strictly nearer, a later one as near: the sweep's tie rule), which is the sweep's
 //! integral without an event list whose length grows with the square of the budget; shading
 //! uses the tracer kernel's u32 sampler, seeded from the eye's seed and [`ANALYTIC_STREAM`].
-
-pub mod analytic_host;
-pub mod analytic_twin;
 
 use bytemuck::{Pod, Zeroable};
 use study::scene::{EyeView, FrameScene};
@@ -28,8 +25,6 @@ use super::frame::{bin, tile_bins};
 use super::geometry::{CameraFrame, SurfaceKind, scene_triangles};
 use super::interval::SEARCH_RANGE_OPAQUE;
 use crate::shading::gpu::params::{EnvTables, FrameParams, ParamsError};
-
-pub use analytic_host::{GpuAnalytic, GpuAnalyticError};
 
 /// Tile side of the kernel's bins in pixels (`ANALYTIC_TILE` in WGSL): smaller than the CPU
 /// rasterizer's, so a pixel walks fewer triangles (see the kernel on llvmpipe's loop limit).
@@ -70,7 +65,7 @@ pub struct RasterParams {
     /// its `n x n` blocks are output pixels, which own the shading's sample sequences).
     pub supersampling: u32,
     /// Which pass over the band this dispatch is (0 starts every pixel's work; later passes
-    /// resume it): see [`analytic_host::GpuAnalytic::render_view`].
+    /// resume it): see [`super::host::GpuAnalytic::render_view`].
     pub pass_index: u32,
     /// Steps one pass takes at most per pixel (0: no bound, the whole pixel in one pass).
     pub steps: u32,
@@ -240,8 +235,8 @@ mod tests {
 
     #[test]
     fn the_kernel_assembles_and_validates() {
-        let source = analytic_host::kernel_source().unwrap();
-        ::gpu::validate_wgsl("analytic.wgsl", &source).unwrap();
+        let source = super::super::host::kernel_source().unwrap();
+        ::gpu::validate_wgsl("analytic_pixel.wgsl", &source).unwrap();
         assert!(source.contains("fn radiance_from(") && source.contains("fn analytic_pixel("));
     }
 

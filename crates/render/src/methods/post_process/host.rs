@@ -1,4 +1,4 @@
-//! The filters' host side: [`GpuFilters`] compiles `shaders/filters/{tiles,mcguire,guertin}.wgsl`
+//! The filters' host side: [`GpuFilters`] compiles `tiles.wgsl` and the filters' `gather.wgsl`
 //! once per device and runs a filter as one compute pass of dispatches (encode, TileMax rows,
 //! TileMax columns, NeighborMax, the variance where asked for, the gather) over buffers
 //! created for the image, timed with [`gpu::GpuTimer`].
@@ -8,16 +8,18 @@ use gpu::{GpuContext, GpuError, GpuInfo, TimingSource, WgslAssembler, wgpu};
 
 use super::common::PassParams;
 use super::tiles::Tiles;
-use super::{FilterError, GBuffer, GuertinParams, McGuireParams, check_gbuffer};
+use super::{FilterError, GBuffer, check_gbuffer};
+use crate::methods::guertin::GuertinParams;
+use crate::methods::mcguire::McGuireParams;
 
 /// The filters' WGSL include: `//! include filters_common`.
-pub const COMMON_WGSL: &str = include_str!("../../shaders/filters/common.wgsl");
+pub const COMMON_WGSL: &str = include_str!("common.wgsl");
 /// The passes before the gather.
-pub const TILES_WGSL: &str = include_str!("../../shaders/filters/tiles.wgsl");
+pub const TILES_WGSL: &str = include_str!("tiles.wgsl");
 /// McGuire et al. 2012's gather.
-pub const MCGUIRE_WGSL: &str = include_str!("../../shaders/filters/mcguire.wgsl");
+pub const MCGUIRE_WGSL: &str = include_str!("../mcguire/gather.wgsl");
 /// Guertin et al. 2014's gather.
-pub const GUERTIN_WGSL: &str = include_str!("../../shaders/filters/guertin.wgsl");
+pub const GUERTIN_WGSL: &str = include_str!("../guertin/gather.wgsl");
 
 /// Workgroups are 8 x 8 invocations.
 const WORKGROUP: u32 = 8;

@@ -1,6 +1,6 @@
-// The u32 Owen-scrambled Sobol sampler: the WGSL twin of `render::tracer::gpu::sampler32`
+// The u32 Owen-scrambled Sobol sampler: the WGSL twin of `render::shading::gpu::sampler32`
 // (read its docs for the scheme), which `tests/sampler32_wgsl.rs` holds it to bit for bit.
-// Needs the constant DIM_PIXEL (declared by `render::tracer::gpu::assembler()`). The eye's
+// Needs the constant DIM_PIXEL (declared by `render::shading::gpu::assembler::assembler()`). The eye's
 // 32-bit seed is computed once on the CPU (`eye_seed32`) and passed in.
 
 // The "lowbias32" integer hash (a bijection).

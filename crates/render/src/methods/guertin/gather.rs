@@ -1,4 +1,4 @@
-//! Guertin et al. 2014's gather, the twin of `shaders/filters/guertin.wgsl` (the paper's
+//! Guertin et al. 2014's gather, the twin of `gather.wgsl` beside it (the paper's
 //! appendix A with its text's sections 4.1-4.5 and 5).
 //!
 //! The pseudocode leaves out or gets wrong some details; each is resolved as the text
@@ -44,13 +44,14 @@
 //! paper's setting for its results). The paper's second output, a luminance checkerboard to
 //! steer a following FXAA pass (section 4.5), is not produced: there is no FXAA pass here.
 
-use super::common::{
+use crate::methods::post_process::common::{
     Gathered, HALF_PIXEL, OVERFLOW_SCALE, PassParams, cone, cylinder, dot2, halton_jitter, index, is_bad, is_bad3,
     length2, offset_pixel, scale2, tile_index, tile_offset_random, z_compare,
 };
 use rayon::prelude::*;
 
-use super::{FilterError, GBuffer, GuertinParams, check_gbuffer, tiles};
+use super::GuertinParams;
+use crate::methods::post_process::{FilterError, GBuffer, check_gbuffer, tiles};
 
 /// The tile whose NeighborMax pixel (x, y) reads (`soffset` of the paper, section 4.2): its
 /// own, or with probability `max(0, 1/2 - tau d / r)` the neighbour across the nearer tile
