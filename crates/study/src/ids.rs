@@ -240,21 +240,48 @@ impl FromStr for StimulusId {
             5 => Some(parts.pop().unwrap_or_default().parse::<MethodTag>().map_err(err)?),
             _ => None,
         };
-        if parts.len() != 4 {
-            return Err(err(format!("found {} level parts, expected 4", parts.len())));
-        }
-        let mut levels = [0u8; 4];
-        for ((part, factor), level) in parts.iter().zip(Factor::ALL).zip(levels.iter_mut()) {
-            let digits = part
-                .strip_prefix(factor.letter())
-                .ok_or_else(|| err(format!("part `{part}` should start with `{}`", factor.letter())))?;
-            *level = digits
-                .parse::<u8>()
-                .ok()
-                .filter(|&l| l >= 1)
-                .ok_or_else(|| err(format!("`{part}` needs a level number of 1 or more")))?;
-        }
+        let levels: [u8; 4] = parse_levels(&parts).map_err(err)?;
         Ok(StimulusId { material: levels[0], speed: levels[1], shutter: levels[2], samples: levels[3], method, view })
+    }
+}
+
+/// The level numbers of `parts`, one per factor in [`Factor::ALL`]'s order (`M3`, `S2`, ...).
+fn parse_levels<const N: usize>(parts: &[&str]) -> Result<[u8; N], String> {
+    if parts.len() != N {
+        return Err(format!("found {} level parts, expected {N}", parts.len()));
+    }
+    let mut levels = [0u8; N];
+    for ((part, factor), level) in parts.iter().zip(Factor::ALL).zip(levels.iter_mut()) {
+        let digits = part
+            .strip_prefix(factor.letter())
+            .ok_or_else(|| format!("part `{part}` should start with `{}`", factor.letter()))?;
+        *level = digits
+            .parse::<u8>()
+            .ok()
+            .filter(|&l| l >= 1)
+            .ok_or_else(|| format!("`{part}` needs a level number of 1 or more"))?;
+    }
+    Ok(levels)
+}
+
+impl Cell {
+    /// A cell and its view from `M3-S3-T5` or `M3-S3-T5-stereo`, or from the id of a
+    /// stimulus in that cell (`M3-S3-T5-A2`, `M3-S3-T5-A2-guertin-stereo`: its samples level
+    /// and method are not part of the cell). Levels are not checked against a design.
+    pub fn parse_label(text: &str) -> Result<(Cell, View), IdError> {
+        if let Ok(id) = text.parse::<StimulusId>() {
+            return Ok((id.cell(), id.view));
+        }
+        let err = |reason: String| IdError { text: text.to_owned(), reason };
+        let mut parts: Vec<&str> = text.split('-').collect();
+        let view = if parts.last() == Some(&"stereo") {
+            parts.pop();
+            View::Stereo
+        } else {
+            View::Mono
+        };
+        let [material, speed, shutter] = parse_levels(&parts).map_err(err)?;
+        Ok((Cell { material, speed, shutter }, view))
     }
 }
 
@@ -274,6 +301,23 @@ impl<'de> Deserialize<'de> for StimulusId {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cells_parse_from_their_label_or_a_stimulus_id() {
+        let cell = Cell { material: 3, speed: 2, shutter: 5 };
+        for (text, view) in [
+            ("M3-S2-T5", View::Mono),
+            ("M3-S2-T5-stereo", View::Stereo),
+            ("M3-S2-T5-A4", View::Mono),
+            ("M3-S2-T5-A1-guertin-stereo", View::Stereo),
+        ] {
+            assert_eq!(Cell::parse_label(text).unwrap(), (cell, view), "{text}");
+        }
+        assert_eq!(Cell::parse_label(&cell.label(View::Stereo)).unwrap(), (cell, View::Stereo));
+        for bad in ["M3-S2", "M3-X2-T5", "M0-S2-T5", "M3-S2-T5-A1-B2-C3", ""] {
+            assert!(Cell::parse_label(bad).is_err(), "{bad}");
+        }
+    }
 
     #[test]
     fn an_ids_cell_is_its_material_speed_and_shutter() {

@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 use study::Method;
 use study::cost::{COST_FORMAT, CostPoint, CostReference, CostSweep, point_key};
 use study::design::{Design, Preset};
-use study::ids::{Cell, Factor, MethodTag, StimulusId, View};
+use study::ids::{Cell, Factor, StimulusId, View};
 use study::method::{MethodSpec, SweepSetting as Setting};
 use study::scene::FrameScene;
 use study::seed::mix;
@@ -133,44 +133,24 @@ fn work_units(setting: &Setting, pixels: u64) -> u64 {
     setting.spec.kind().work_units(setting.knob, setting.value, setting.input_spp) * pixels
 }
 
-/// `(material, speed, shutter, view)` of `text` (`M3-S3-T5`, optionally `-A<a>`, a method
-/// tag, `-stereo`), checked against the design.
-pub fn parse_cell(design: &Design, text: &str) -> Result<(u8, u8, u8, View), CostError> {
+/// The cell and view of `text` (`M3-S3-T5`, optionally `-A<a>`, a method tag, `-stereo`:
+/// [`Cell::parse_label`]), checked against the design.
+pub fn parse_cell(design: &Design, text: &str) -> Result<(Cell, View), CostError> {
     let bad = |why: String| {
         CostError::Request(format!("--id `{text}`: {why} (expected material, speed and shutter, e.g. `M3-S3-T5`)"))
     };
-    let mut parts: Vec<&str> = text.split('-').collect();
-    let view = if parts.last() == Some(&"stereo") {
-        parts.pop();
-        View::Stereo
-    } else {
-        View::Mono
-    };
-    if parts.len() > 3 && parts[3].starts_with('A') {
-        parts.remove(3);
-    }
-    if parts.len() == 4 && parts[3].parse::<MethodTag>().is_ok() {
-        parts.pop();
-    }
-    if parts.len() != 3 {
-        return Err(bad(format!("{} parts where 3 are expected", parts.len())));
-    }
-    let mut levels = [0u8; 3];
-    for (i, (factor, part)) in [Factor::Material, Factor::Speed, Factor::Shutter].into_iter().zip(&parts).enumerate() {
-        let letter = factor.letter();
-        let number = part
-            .strip_prefix(letter)
-            .and_then(|n| n.parse::<u8>().ok())
-            .ok_or_else(|| bad(format!("`{part}` is not {letter}<level>")))?;
-        let count = design.level_count(factor);
-        if number == 0 || number > count {
+    let (cell, view) = Cell::parse_label(text).map_err(|e| bad(e.reason))?;
+    for (factor, number) in
+        [(Factor::Material, cell.material), (Factor::Speed, cell.speed), (Factor::Shutter, cell.shutter)]
+    {
+        let (letter, count) = (factor.letter(), design.level_count(factor));
+        if number > count {
             return Err(bad(format!(
                 "{letter}{number} is not a level of the design (it has {letter}1..{letter}{count})"
             )));
         }
-        levels[i] = number;
     }
-    Ok((levels[0], levels[1], levels[2], view))
+    Ok((cell, view))
 }
 
 /// The scene with seeds mixed apart by `salt` and `spp` samples.
@@ -363,7 +343,7 @@ pub fn run_cost(
 ) -> Result<CostOutcome, CostError> {
     let bad = |m: String| Err(CostError::Request(m));
     let preset = design.preset(&request.preset)?;
-    let (material, speed, shutter, view) = parse_cell(design, &request.cell)?;
+    let (cell, view) = parse_cell(design, &request.cell)?;
     if request.repetitions == 0 || request.repetitions > 1000 {
         return bad(format!("--repetitions must lie in 1..=1000, got {}", request.repetitions));
     }
@@ -397,8 +377,9 @@ pub fn run_cost(
     }
     let methods: Vec<Method> = if request.methods.is_empty() { Method::ALL.to_vec() } else { request.methods.clone() };
     let tag = design.method_tags().first().copied();
-    let id = StimulusId { material, speed, shutter, samples: 1, method: tag, view };
-    let cell = Cell { material, speed, shutter }.label(view);
+    let id =
+        StimulusId { material: cell.material, speed: cell.speed, shutter: cell.shutter, samples: 1, method: tag, view };
+    let cell = cell.label(view);
     let identity = Identity {
         format: COST_FORMAT.to_owned(),
         design_sha256: design.sha256.clone(),
