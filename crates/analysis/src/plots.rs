@@ -128,10 +128,15 @@ pub fn log_log_chart<'a, DB: DrawingBackend>(
         .y_label_area_size(70)
         .build_cartesian_2d(x.log_scale(), y.log_scale())
         .map_err(err)?;
+    // Plotters puts a tick at every 1..9 x 10^k on a short log axis; labels at all of them
+    // run into each other, so only 1, 2 and 5 x 10^k are labelled.
+    let (fx, fy) = fmt;
+    let x_fmt = |v: &f64| if is_one_two_five(*v) { fx(v) } else { String::new() };
+    let y_fmt = |v: &f64| if is_one_two_five(*v) { fy(v) } else { String::new() };
     chart
         .configure_mesh()
-        .x_label_formatter(fmt.0)
-        .y_label_formatter(fmt.1)
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
         .light_line_style(BLACK.mix(0.04))
         .x_desc(x_desc)
         .y_desc(y_desc)
@@ -140,6 +145,15 @@ pub fn log_log_chart<'a, DB: DrawingBackend>(
         .draw()
         .map_err(err)?;
     Ok(chart)
+}
+
+/// Whether `v` is 1, 2 or 5 times a power of ten (to a relative 1e-6).
+fn is_one_two_five(v: f64) -> bool {
+    if !(v > 0.0 && v.is_finite()) {
+        return false;
+    }
+    let mantissa = v / 10f64.powf(v.log10().floor());
+    [1.0, 2.0, 5.0, 10.0].iter().any(|m| (mantissa - m).abs() < 1e-6 * m)
 }
 
 /// Draws the series' legend of a [`log_log_chart`] in its upper right corner.
@@ -543,5 +557,20 @@ impl Figure for ScaleFigure {
             chart.draw_series([Text::new(self.labels[i].clone(), (x, lo - pad * 0.5), centred(13.0))]).map_err(err)?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_axes_label_one_two_five_only() {
+        for v in [1.0, 0.2, 0.05, 500.0, 0.001, 0.010_000_000_000_000_002] {
+            assert!(is_one_two_five(v), "{v}");
+        }
+        for v in [0.03, 0.07, 3.0, 0.0, -1.0, f64::NAN, 0.15] {
+            assert!(!is_one_two_five(v), "{v}");
+        }
     }
 }

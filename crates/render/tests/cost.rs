@@ -178,6 +178,17 @@ fn a_stopped_sweep_resumes_to_the_same_table() {
     let again = run_cost(&design, &renderer, &req, |_| {}).unwrap();
     assert_eq!((again.measured, again.kept), (0, whole.points.len()));
     assert_eq!(again.sweep.csv(), resumed.sweep.csv());
+    // A budget of no new points still reports every kept point (redrawing a report).
+    req.max_new_points = Some(0);
+    let redrawn = run_cost(&design, &renderer, &req, |_| {}).unwrap();
+    assert_eq!((redrawn.measured, redrawn.kept, redrawn.complete), (0, whole.points.len(), true));
+    assert_eq!(redrawn.sweep.csv(), resumed.sweep.csv());
+    // With a point missing it stops short of measuring it, keeping the others.
+    let missing = dir.path().join("b/points").join(format!("{}.json", whole.points[0].key()));
+    std::fs::remove_file(&missing).unwrap();
+    let short = run_cost(&design, &renderer, &req, |_| {}).unwrap();
+    assert_eq!((short.measured, short.kept, short.complete), (0, whole.points.len() - 1, false));
+    req.max_new_points = None;
     // Another request in the same folder is refused, naming what differs.
     req.reference_spp = 8192;
     let e = run_cost(&design, &renderer, &req, |_| {}).unwrap_err();

@@ -249,13 +249,17 @@ impl Context<'_, '_> {
         repetition: u32,
         reference: &Reference,
         map: bool,
-    ) -> Result<(CostPoint, bool), CostError> {
+        may_measure: bool,
+    ) -> Result<Option<(CostPoint, bool)>, CostError> {
         let key = point_key(setting.spec.kind(), setting.knob, setting.value, setting.input_spp, frame, repetition);
         let path = self.out.join("points").join(format!("{key}.json"));
         if path.exists() {
             let point: CostPoint = serde_json::from_slice(&std::fs::read(&path).map_err(|e| file_error(&path, e))?)
                 .map_err(|e| file_error(&path, e))?;
-            return Ok((point, false));
+            return Ok(Some((point, false)));
+        }
+        if !may_measure {
+            return Ok(None);
         }
         let base = self.base_scene(frame)?;
         let salt = [0xC057, setting.spec.kind() as u64, u64::from(setting.value), u64::from(repetition)];
@@ -292,7 +296,7 @@ impl Context<'_, '_> {
         let dir = self.out.join("points");
         std::fs::create_dir_all(&dir).map_err(|e| file_error(&dir, e))?;
         write(&path, &serde_json::to_vec_pretty(&point).map_err(|e| file_error(&path, e))?)?;
-        Ok((point, true))
+        Ok(Some((point, true)))
     }
 }
 
@@ -472,13 +476,16 @@ pub fn run_cost(
         references.insert(frame, r);
     }
     let total = order.len();
-    let (mut measured, mut kept) = (0, 0);
+    let (mut measured, mut kept, mut complete) = (0, 0, true);
     progress(Progress { done: 0, total, measured: 0 });
     for (i, (frame, setting, rep, map)) in order.iter().enumerate() {
-        if request.max_new_points.is_some_and(|m| measured >= m) {
-            return Ok(CostOutcome { sweep, measured, kept, complete: false });
-        }
-        let (point, new) = ctx.point(setting, *frame, *rep, &references[frame], *map)?;
+        // Past the budget of new points, kept points still count: the report so far has
+        // every point measured before.
+        let may_measure = request.max_new_points.is_none_or(|m| measured < m);
+        let Some((point, new)) = ctx.point(setting, *frame, *rep, &references[frame], *map, may_measure)? else {
+            complete = false;
+            continue;
+        };
         if new {
             measured += 1;
         } else {
@@ -500,7 +507,7 @@ pub fn run_cost(
     };
     sweep.points.sort_by_key(|p| (position(p), p.frame, p.repetition));
     check_converged(&sweep)?;
-    Ok(CostOutcome { sweep, measured, kept, complete: true })
+    Ok(CostOutcome { sweep, measured, kept, complete })
 }
 
 #[cfg(test)]
