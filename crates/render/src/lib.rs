@@ -7,9 +7,11 @@
 //! the shading layer the tracer and the analytic rasterizer share, in f64 and in f32/WGSL;
 //! `env` loads, generates and importance-samples environment maps; `io` turns linear
 //! radiance into PNG/EXR files; `numeric` holds the robust numerics every method shares;
-//! `measure` measures the methods (cost, accuracy, benchmarks). Whole sets (folders,
+//! `measure` measures the methods (cost, accuracy, benchmarks); `antialias` filters a
+//! finished display frame (morphological antialiasing). Whole sets (folders,
 //! manifests, resume, shards) are the `sets` crate's.
 
+pub mod antialias;
 pub mod env;
 pub mod io;
 pub mod measure;

@@ -1,0 +1,53 @@
+//! Pass 1, edge detection (thesis section 3.4): an edge lies on a pixel's west or north
+//! boundary where the luminance of the display values on its two sides differs by at least
+//! the threshold. The CPU twin of `edges.wgsl`.
+//!
+//! The result is the edges texture with a one-texel border of zeros around the image
+//! (texel `(x + 1, y + 1)` is pixel `(x, y)`), `[west, north]` per texel as 0 or 1: the
+//! searches of pass 2 then stop at the image's border by themselves (the text clamps
+//! instead, which would carry a line on along the border).
+
+/// The display luminance the edges are found on (the thesis's Eq. 3.1, Rec. 709
+/// weights, on the display-encoded values).
+pub fn luminance(c: [f32; 3]) -> f32 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+/// Width of the padded edges texture of an image `width` pixels wide.
+pub fn padded(width: u32) -> u32 {
+    width + 2
+}
+
+/// Whether `x` is NaN or infinite, by its exponent bits (WGSL has no `isNan`, and a
+/// comparison with NaN may be optimised away).
+pub fn is_bad(x: f32) -> bool {
+    (x.to_bits() & 0x7f80_0000) == 0x7f80_0000
+}
+
+/// Whether the boundary between two pixels of luminances `a` and `b` is an edge. A
+/// non-finite luminance makes no edge, so its pixel takes part in no line and no blend:
+/// it stays as it is and spreads to no neighbour.
+pub fn is_edge(a: f32, b: f32, threshold: f32) -> bool {
+    !is_bad(a) && !is_bad(b) && (a - b).abs() >= threshold
+}
+
+/// `[west, north]` of pixel `(x, y)`: `color` is row-major, `width x height`.
+pub fn detect_edge(width: u32, color: &[[f32; 3]], threshold: f32, x: u32, y: u32) -> [f32; 2] {
+    let at = |x: u32, y: u32| luminance(color[(y * width + x) as usize]);
+    let l = at(x, y);
+    let west = x > 0 && is_edge(l, at(x - 1, y), threshold);
+    let north = y > 0 && is_edge(l, at(x, y - 1), threshold);
+    [f32::from(u8::from(west)), f32::from(u8::from(north))]
+}
+
+/// The padded edges texture of the image.
+pub fn detect_edges(width: u32, height: u32, color: &[[f32; 3]], threshold: f32) -> Vec<[f32; 2]> {
+    let pw = padded(width) as usize;
+    let mut edges = vec![[0.0; 2]; pw * padded(height) as usize];
+    for y in 0..height {
+        for x in 0..width {
+            edges[(y as usize + 1) * pw + x as usize + 1] = detect_edge(width, color, threshold, x, y);
+        }
+    }
+    edges
+}

@@ -1,0 +1,4 @@
+//! Antialiasing of a display frame after it is rendered: [`mlaa`], the morphological
+//! antialiasing of the thesis's Part II.
+
+pub mod mlaa;

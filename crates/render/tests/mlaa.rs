@@ -1,0 +1,177 @@
+//! Morphological antialiasing on the CPU: aliased edges of known coverage come closer to
+//! their exact coverage, straight axis-aligned edges and isolated values stay as they are,
+//! the search stops where the line ends, and bad settings are refused.
+
+#![allow(clippy::unwrap_used, reason = "tests fail by panicking")]
+
+use render::antialias::mlaa::area::MAX_DISTANCE;
+use render::antialias::mlaa::edges::detect_edges;
+use render::antialias::mlaa::weights::search;
+use render::antialias::mlaa::{MlaaError, MlaaParams, mlaa_cpu};
+
+const DARK: [f32; 3] = [0.05, 0.05, 0.05];
+const BRIGHT: [f32; 3] = [0.9, 0.8, 0.7];
+
+/// The half-plane `y > slope (x - x0) + y0` (y down) in bright over dark: the image sampled
+/// at pixel centres (aliased) and its exact coverage (64 x 64 samples per pixel).
+fn half_plane(w: u32, h: u32, slope: f64, x0: f64, y0: f64) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let inside = |x: f64, y: f64| y > slope * (x - x0) + y0;
+    let mut aliased = Vec::new();
+    let mut exact = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let (cx, cy) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+            aliased.push(if inside(cx, cy) { BRIGHT } else { DARK });
+            let n = 64;
+            let mut covered = 0;
+            for j in 0..n {
+                for i in 0..n {
+                    let (sx, sy) =
+                        (f64::from(x) + (f64::from(i) + 0.5) / 64.0, f64::from(y) + (f64::from(j) + 0.5) / 64.0);
+                    covered += u32::from(inside(sx, sy));
+                }
+            }
+            let a = f64::from(covered) / f64::from(n * n);
+            exact.push(std::array::from_fn(|c| {
+                (f64::from(DARK[c]) + (f64::from(BRIGHT[c]) - f64::from(DARK[c])) * a) as f32
+            }));
+        }
+    }
+    (aliased, exact)
+}
+
+fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    let s: f64 =
+        a.iter().zip(b).flat_map(|(p, q)| (0..3).map(move |c| (f64::from(p[c]) - f64::from(q[c])).powi(2))).sum();
+    (s / (3 * a.len()) as f64).sqrt()
+}
+
+#[test]
+fn shallow_steep_and_diagonal_edges_come_closer_to_their_coverage() {
+    let (w, h) = (96, 64);
+    // Nearly horizontal, shallow, 45 degrees, steep (west edges), nearly vertical.
+    for slope in [0.06, 0.3, 1.0, 3.0, 12.0] {
+        let (aliased, exact) = half_plane(w, h, slope, 40.3, 30.2);
+        let out = mlaa_cpu(w, h, &aliased, &MlaaParams::default()).unwrap();
+        let (before, after) = (rmse(&aliased, &exact), rmse(&out, &exact));
+        // 45 degrees is the classic weak case: every line is one pixel long.
+        let bound = if slope == 1.0 { 0.85 } else { 0.35 };
+        assert!(after < bound * before, "slope {slope}: RMSE {before:.4} aliased, {after:.4} after MLAA");
+    }
+}
+
+#[test]
+fn axis_aligned_edges_and_one_pixel_lines_are_left_alone() {
+    let (w, h) = (40, 30);
+    // A one-pixel-wide horizontal line, a one-pixel-wide vertical line, a column along the
+    // image border, each alone (where lines meet, the corners are L patterns and blend).
+    let lines: [&dyn Fn(u32, u32) -> bool; 3] = [&|_, y| y == 10, &|x, _| x == 25, &|x, _| x == 0];
+    for line in lines {
+        let img: Vec<[f32; 3]> = (0..w * h).map(|i| if line(i % w, i / w) { BRIGHT } else { DARK }).collect();
+        let out = mlaa_cpu(w, h, &img, &MlaaParams::default()).unwrap();
+        assert_eq!(out, img);
+    }
+}
+
+#[test]
+fn blends_stay_within_the_neighbourhood_and_non_finite_pixels_stay_put() {
+    let (w, h) = (37, 23); // not a multiple of any work-group size
+    let (mut img, _) = half_plane(w, h, 0.4, 10.0, 5.0);
+    // A checker of high-contrast squares inside the image, and non-finite values.
+    for y in 12..20 {
+        for x in 20..34 {
+            img[(y * w + x) as usize] = if (x / 3 + y / 3) % 2 == 0 { [1.0, 1.0, 1.0] } else { [0.0; 3] };
+        }
+    }
+    let nan = (8 * w + 9) as usize;
+    let inf = (15 * w + 4) as usize;
+    img[nan] = [f32::NAN, 0.5, 0.5];
+    img[inf] = [f32::INFINITY; 3];
+    let out = mlaa_cpu(w, h, &img, &MlaaParams::default()).unwrap();
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            if i == nan || i == inf {
+                continue;
+            }
+            let mut near = vec![img[i]];
+            if x > 0 {
+                near.push(img[i - 1]);
+            }
+            if x + 1 < w {
+                near.push(img[i + 1]);
+            }
+            if y > 0 {
+                near.push(img[i - w as usize]);
+            }
+            if y + 1 < h {
+                near.push(img[i + w as usize]);
+            }
+            let near: Vec<[f32; 3]> = near.into_iter().filter(|c| c.iter().all(|v| v.is_finite())).collect();
+            for c in 0..3 {
+                let lo = near.iter().map(|p| p[c]).fold(f32::INFINITY, f32::min);
+                let hi = near.iter().map(|p| p[c]).fold(f32::NEG_INFINITY, f32::max);
+                assert!(
+                    out[i][c].is_finite() && out[i][c] >= lo - 1e-6 && out[i][c] <= hi + 1e-6,
+                    "({x}, {y}): {:?}",
+                    out[i]
+                );
+            }
+        }
+    }
+    assert!(out[nan][0].is_nan() && out[inf] == [f32::INFINITY; 3]);
+}
+
+#[test]
+fn a_longer_search_resolves_lines_longer_than_a_short_one() {
+    // Runs of 40 pixels: a search of 8 sees only part of each line, 64 all of it.
+    let (w, h) = (200, 24);
+    let (aliased, exact) = half_plane(w, h, 1.0 / 40.0, 3.1, 9.3);
+    let short = mlaa_cpu(w, h, &aliased, &MlaaParams { search_distance: 8, ..MlaaParams::default() }).unwrap();
+    let long =
+        mlaa_cpu(w, h, &aliased, &MlaaParams { search_distance: MAX_DISTANCE, ..MlaaParams::default() }).unwrap();
+    let (a, s, l) = (rmse(&aliased, &exact), rmse(&short, &exact), rmse(&long, &exact));
+    assert!(l < 0.5 * a && l < s && s <= a, "aliased {a:.4}, search 8 {s:.4}, search 64 {l:.4}");
+}
+
+#[test]
+fn the_search_stops_where_the_line_ends_even_when_a_fetch_reads_half() {
+    // North edges (channel 1) in row 0 at x = 0..=4 and x = 6..=9: from x = 4 the line has
+    // 4 edgels to its left and none to its right, although the fetch of pixels 5 and 6
+    // reads 1/2.
+    let (w, h) = (10u32, 1u32);
+    let pw = w + 2;
+    let mut edges = vec![[0.0f32; 2]; (pw * (h + 2)) as usize];
+    for x in (0..=4).chain(6..=9) {
+        edges[(pw + x + 1) as usize][1] = 1.0;
+    }
+    let ph = h + 2;
+    assert_eq!(search(&edges, pw, ph, (5, 1), (-1, 0), 1, 12), 4);
+    assert_eq!(search(&edges, pw, ph, (5, 1), (1, 0), 1, 12), 0);
+    assert_eq!(search(&edges, pw, ph, (7, 1), (1, 0), 1, 12), 3);
+    assert_eq!(search(&edges, pw, ph, (7, 1), (-1, 0), 1, 12), 0);
+    assert_eq!(search(&edges, pw, ph, (10, 1), (-1, 0), 1, 2), 2, "clamped to the search distance");
+    // Detected edges agree with the layout the search reads.
+    let img: Vec<[f32; 3]> = (0..20).map(|i| if i < 10 || i == 15 { DARK } else { BRIGHT }).collect();
+    let e = detect_edges(10, 2, &img, 0.1);
+    assert_eq!(e[(2 * pw + 1 + 4) as usize], [0.0, 1.0]);
+    assert_eq!(e[(2 * pw + 1 + 5) as usize], [1.0, 0.0]);
+}
+
+#[test]
+fn bad_settings_are_refused() {
+    let img = vec![DARK; 4];
+    for (params, want) in [
+        (MlaaParams { threshold: 0.0, ..MlaaParams::default() }, MlaaError::Threshold(0.0)),
+        (MlaaParams { threshold: 1.5, ..MlaaParams::default() }, MlaaError::Threshold(1.5)),
+        (MlaaParams { search_distance: 0, ..MlaaParams::default() }, MlaaError::SearchDistance(0)),
+        (MlaaParams { search_distance: 65, ..MlaaParams::default() }, MlaaError::SearchDistance(65)),
+    ] {
+        assert_eq!(mlaa_cpu(2, 2, &img, &params).unwrap_err(), want);
+    }
+    assert!(matches!(
+        mlaa_cpu(2, 2, &img, &MlaaParams { threshold: f32::NAN, ..MlaaParams::default() }),
+        Err(MlaaError::Threshold(_))
+    ));
+    assert!(matches!(mlaa_cpu(3, 2, &img, &MlaaParams::default()), Err(MlaaError::Size { .. })));
+}
