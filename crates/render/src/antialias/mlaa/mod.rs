@@ -15,11 +15,14 @@
 //! are those a viewer sees, and a pixel's blend stays within the range of its neighbours'
 //! display values. Where the code departs from the text it says so in the pass's module.
 //!
-//! The CPU functions here are the twins of the WGSL passes and the fallback without a GPU.
+//! The CPU functions here are the twins of the WGSL passes (`edges.wgsl`, `weights.wgsl`,
+//! `blend.wgsl`, with `common.wgsl`) and the fallback without a GPU; [`host::GpuMlaa`] runs
+//! the passes on a device.
 
 pub mod area;
 pub mod blend;
 pub mod edges;
+pub mod host;
 pub mod weights;
 
 /// The thesis's good trade for the search distance, in pixels ("between 8 and 12").
@@ -44,7 +47,7 @@ impl Default for MlaaParams {
 }
 
 /// Why MLAA refused its input.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Debug, thiserror::Error)]
 pub enum MlaaError {
     /// The threshold is not in (0, 1].
     #[error("MLAA threshold {0}: must lie in (0, 1]")]
@@ -62,6 +65,9 @@ pub enum MlaaError {
         /// Pixels given.
         got: usize,
     },
+    /// The device failed or rejected the work.
+    #[error(transparent)]
+    Gpu(#[from] gpu::GpuError),
 }
 
 impl MlaaParams {
