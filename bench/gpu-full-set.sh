@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The GPU measurements in one call: the tracer's benchmark (`bench tracer --device gpu`), the
-# post-process filters' (`bench filters --device gpu`: ms per 1280x720 frame at N = 35), the
+# post-process filters' (`bench filters --device gpu`: ms per 1280x720 frame at N = 35),
+# morphological antialiasing's (`bench mlaa --device gpu`: ms per 1280x720 frame), the
 # analytic rasterizer's (`bench analytic --gpu`: its WGSL kernel and the CPU rasterizer on
 # the same 640x360 frame at 8 intervals per pixel, 1 and 4 lighting samples), then
 # a timed slice of the full study set (all five sample levels of M3-S3-T5, mono and stereo,
@@ -61,6 +62,9 @@ log "benchmark ($bin, spp $spp)"
 log "filters (bench filters: McGuire 2012 and Guertin 2014 at 1280x720, N = 35)"
 "$bin" bench filters --device gpu --json --rounds "$((rounds * 10))" >"$out/filters.json"
 
+log "MLAA (bench mlaa: three passes on the 1280x720 benchmark frame; the thesis's Part II)"
+"$bin" bench mlaa --device gpu --json --rounds "$((rounds * 10))" >"$out/mlaa.json"
+
 log "analytic rasterizer (bench analytic --gpu: 640x360, 8 intervals, 1 and 4 lighting samples; 4 x 4 points per pixel)"
 "$bin" bench analytic --gpu --json --lighting-samples 1 --rounds "$rounds" >"$out/analytic-1.json"
 "$bin" bench analytic --gpu --json --lighting-samples 4 --rounds "$rounds" >"$out/analytic-4.json"
@@ -99,6 +103,7 @@ cat <<EOF | tee "$out/result.json"
   "binary": "$bin",
   "bench": $(cat "$out/bench.json"),
   "filters": $(cat "$out/filters.json"),
+  "mlaa": $(cat "$out/mlaa.json"),
   "analytic_1_lighting_sample": $(cat "$out/analytic-1.json"),
   "analytic_4_lighting_samples": $(cat "$out/analytic-4.json"),
   "analytic_4x4_points_1_lighting_sample": $(cat "$out/analytic-4x4.json"),

@@ -5,6 +5,7 @@ pub mod analytic;
 pub mod analytic_accuracy;
 pub mod filters;
 pub mod methods;
+pub mod mlaa;
 pub mod playback;
 pub mod tracer;
 
@@ -45,6 +46,8 @@ enum Which {
     Filters(filters::Args),
     /// Each rendering method's error against a tracer reference, and its time.
     Methods(methods::Args),
+    /// Milliseconds per frame of morphological antialiasing (GPU timestamps, CPU twin beside).
+    Mlaa(mlaa::Args),
     /// Analysis speed: grouping, bootstrap scaling, W quantiles.
     Analysis(analysis::Args),
     /// Runner: sequence decode/upload time, memory, frame pacing.
@@ -61,6 +64,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Which::Tracer(a) => tracer::run(a),
         Which::Filters(a) => filters::run(a),
         Which::Methods(a) => methods::run(a),
+        Which::Mlaa(a) => mlaa::run(a),
         Which::Analysis(a) => analysis::run(a),
         Which::Playback(a) => playback::run(a),
         Which::Analytic(a) => analytic::run(a),

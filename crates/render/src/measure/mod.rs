@@ -3,7 +3,8 @@
 //! cost`); `methods` renders each method level of a design against the tracer (`bench
 //! methods`); `tracer`, `tracer_gpu`, `analytic` and `filters` are the benchmarks of `blurlab
 //! bench` (the tracer's benchmark frame and its peers, the GPU tracer, the analytic
-//! rasterizer, the post-process filters); `analytic_accuracy` measures the rasterizer's
+//! rasterizer, the post-process filters); `mlaa`, morphological antialiasing's time per
+//! frame (`bench mlaa`); `analytic_accuracy` measures the rasterizer's
 //! depth, coverage and contact-shadow errors (`bench analytic-accuracy`). Nothing here is
 //! needed to render a frame.
 
@@ -12,5 +13,6 @@ pub mod analytic_accuracy;
 pub mod cost;
 pub mod filters;
 pub mod methods;
+pub mod mlaa;
 pub mod tracer;
 pub mod tracer_gpu;

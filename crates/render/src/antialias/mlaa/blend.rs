@@ -41,13 +41,14 @@ pub fn blend_pixel(width: u32, height: u32, color: &[[f32; 3]], weights: &[Weigh
     if total > 0.0 { [sum[0] / total, sum[1] / total, sum[2] / total] } else { c }
 }
 
-/// Every pixel blended.
+/// Every pixel blended (rows in parallel).
 pub fn blend(width: u32, height: u32, color: &[[f32; 3]], weights: &[Weights]) -> Vec<[f32; 3]> {
-    let mut out = Vec::with_capacity(color.len());
-    for y in 0..height {
-        for x in 0..width {
-            out.push(blend_pixel(width, height, color, weights, x, y));
+    use rayon::prelude::*;
+    let mut out = vec![[0.0; 3]; color.len()];
+    out.par_chunks_mut(width as usize).enumerate().for_each(|(y, row)| {
+        for (x, c) in row.iter_mut().enumerate() {
+            *c = blend_pixel(width, height, color, weights, x as u32, y as u32);
         }
-    }
+    });
     out
 }

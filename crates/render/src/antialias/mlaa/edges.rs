@@ -42,12 +42,14 @@ pub fn detect_edge(width: u32, color: &[[f32; 3]], threshold: f32, x: u32, y: u3
 
 /// The padded edges texture of the image.
 pub fn detect_edges(width: u32, height: u32, color: &[[f32; 3]], threshold: f32) -> Vec<[f32; 2]> {
+    use rayon::prelude::*;
     let pw = padded(width) as usize;
     let mut edges = vec![[0.0; 2]; pw * padded(height) as usize];
-    for y in 0..height {
+    // Rows in parallel; the border rows and columns stay zero.
+    edges.par_chunks_mut(pw).enumerate().skip(1).take(height as usize).for_each(|(ty, row)| {
         for x in 0..width {
-            edges[(y as usize + 1) * pw + x as usize + 1] = detect_edge(width, color, threshold, x, y);
+            row[x as usize + 1] = detect_edge(width, color, threshold, x, ty as u32 - 1);
         }
-    }
+    });
     edges
 }

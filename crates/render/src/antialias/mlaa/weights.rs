@@ -104,13 +104,14 @@ pub fn blending_weight(edges: &[[f32; 2]], width: u32, height: u32, search_dista
     w
 }
 
-/// Every pixel's weights.
+/// Every pixel's weights (rows in parallel).
 pub fn blending_weights(edges: &[[f32; 2]], width: u32, height: u32, search_distance: u32) -> Vec<Weights> {
-    let mut out = Vec::with_capacity((width * height) as usize);
-    for y in 0..height {
-        for x in 0..width {
-            out.push(blending_weight(edges, width, height, search_distance, x, y));
+    use rayon::prelude::*;
+    let mut out = vec![[0.0; 4]; width as usize * height as usize];
+    out.par_chunks_mut(width as usize).enumerate().for_each(|(y, row)| {
+        for (x, w) in row.iter_mut().enumerate() {
+            *w = blending_weight(edges, width, height, search_distance, x as u32, y as u32);
         }
-    }
+    });
     out
 }
