@@ -66,9 +66,18 @@ fn the_kernel_agrees_with_its_cpu_twin_per_pixel() {
     let mut worst_all = 0.0f32;
     for material in 1..=3 {
         for shutter in [1, 5] {
-            for view in [View::Mono, View::Stereo] {
-                let s = study_scene(&design, material, shutter, view, 8);
+            // Samples through the pixel centres (the tracer's `pixel_jitter = false`) on the
+            // checker, mono, too.
+            let cases: &[(View, bool)] = if material == 2 {
+                &[(View::Mono, true), (View::Stereo, true), (View::Mono, false)]
+            } else {
+                &[(View::Mono, true), (View::Stereo, true)]
+            };
+            for &(view, jitter) in cases {
+                let mut s = study_scene(&design, material, shutter, view, 8);
+                s.pixel_jitter = jitter;
                 let spec = Specialisation::of(&s);
+                assert_eq!(spec.pixel_jitter, jitter);
                 assert_eq!(spec.time_sampling, shutter == 5);
                 let out = gpu.render_frame(&s, &genv).unwrap();
                 let (twin, twin_bad) = trace_batch::render_frame(&s, genv.tables(), &spec).unwrap();
@@ -167,12 +176,12 @@ fn specialisations_change_the_cost_not_the_image() {
     let genv = gpu.environment(&env).unwrap();
     let still = study_scene(&design, 1, 1, View::Stereo, 4);
     let cheapest = Specialisation::of(&still);
-    assert_eq!(cheapest, Specialisation { time_sampling: false, material: material_kind::FLAT });
+    assert_eq!(cheapest, Specialisation { time_sampling: false, material: material_kind::FLAT, pixel_jitter: true });
     let base = gpu.render_frame(&still, &genv).unwrap();
     for spec in [
-        Specialisation { time_sampling: true, material: material_kind::FLAT },
-        Specialisation { time_sampling: true, material: material_kind::NOISE },
-        Specialisation { time_sampling: false, material: material_kind::NOISE },
+        Specialisation { time_sampling: true, material: material_kind::FLAT, pixel_jitter: true },
+        Specialisation { time_sampling: true, material: material_kind::NOISE, pixel_jitter: true },
+        Specialisation { time_sampling: false, material: material_kind::NOISE, pixel_jitter: true },
     ] {
         let other = gpu.render_frame_with(&still, &genv, spec).unwrap();
         assert_eq!(other.eyes, base.eyes, "{spec:?}");
@@ -183,7 +192,11 @@ fn specialisations_change_the_cost_not_the_image() {
     moving.shutter = Shutter { open: moving.shutter.open, close: moving.shutter.open };
     let a = gpu.render_frame(&moving, &genv).unwrap();
     let b = gpu
-        .render_frame_with(&moving, &genv, Specialisation { time_sampling: true, material: material_kind::NOISE })
+        .render_frame_with(
+            &moving,
+            &genv,
+            Specialisation { time_sampling: true, material: material_kind::NOISE, pixel_jitter: true },
+        )
         .unwrap();
     assert_eq!(a.eyes, b.eyes);
     assert_eq!(b.nonfinite_samples, 0);
@@ -258,7 +271,7 @@ fn f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer() {
     s.shutter = Shutter { open: 0.02, close: 0.02 };
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let genv = gpu.environment(&env).unwrap();
-    let forced = Specialisation { time_sampling: true, material: material_kind::CHECKER };
+    let forced = Specialisation { time_sampling: true, material: material_kind::CHECKER, pixel_jitter: true };
     let out = gpu.render_frame_with(&s, &genv, forced).unwrap();
     assert_eq!(out.nonfinite_samples, 0);
     assert_eq!(out.eyes, gpu.render_frame(&s, &genv).unwrap().eyes);

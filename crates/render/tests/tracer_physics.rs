@@ -480,3 +480,37 @@ fn nested_levels_are_each_sample_count_rendered_alone() {
         assert_eq!(level.eyes, render_frame(&alone, &env).eyes, "{spp} spp");
     }
 }
+
+#[test]
+fn centred_samples_alias_the_silhouette_and_jittered_ones_do_not() {
+    // A black sphere in front of a lit floor and sky: with every sample through the pixel's
+    // centre, a pixel is exactly black if and only if its centre ray meets the sphere; with
+    // jittered samples the silhouette's pixels mix the two.
+    let mut s = scene(study_camera(64, 40), flat(0.0), uniform(L), 4);
+    s.pixel_jitter = false;
+    let centred = render(&s).remove(0);
+    let cam = &s.views[0].camera;
+    let rays = render::shading::camera::CameraRays::new(cam);
+    let centre = s.sphere.start;
+    let mut hits = 0;
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let ray = rays.ray(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
+            let hit = render::shading::intersect::intersect_sphere(&ray, centre, s.sphere.radius).is_some();
+            hits += u32::from(hit);
+            let black = centred.get(x, y) == [0.0; 3];
+            assert_eq!(black, hit, "pixel ({x}, {y}): {:?}", centred.get(x, y));
+        }
+    }
+    assert!(hits > 20, "the sphere covers {hits} pixel centres");
+    s.pixel_jitter = true;
+    let jittered = render(&s).remove(0);
+    let partial = (0..cam.height)
+        .flat_map(|y| (0..cam.width).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let (c, j) = (centred.get(x, y)[0], jittered.get(x, y)[0]);
+            (c == 0.0) != (j == 0.0)
+        })
+        .count();
+    assert!(partial > 0, "jittered samples leave the silhouette exactly as centred ones");
+}

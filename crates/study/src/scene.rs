@@ -360,6 +360,10 @@ pub struct EyeView {
     pub seed: u64,
 }
 
+fn default_pixel_jitter() -> bool {
+    true
+}
+
 /// Everything needed to render one frame of one stimulus.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FrameScene {
@@ -383,6 +387,12 @@ pub struct FrameScene {
     pub lighting: Lighting,
     /// Camera samples per pixel.
     pub samples_per_pixel: u32,
+    /// Whether each camera sample draws its position in the pixel (the box filter). False
+    /// puts every sample through the pixel's centre, as a rasterizer samples: edges alias,
+    /// which is what an antialiasing filter such as MLAA is given (the tracer's
+    /// `pixel_jitter` setting).
+    #[serde(default = "default_pixel_jitter")]
+    pub pixel_jitter: bool,
     /// Path termination.
     pub integrator: Integrator,
     /// Display mapping.

@@ -163,6 +163,7 @@ impl Design {
                     preset.samples_per_pixel.len()
                 ))
             })?,
+            pixel_jitter: true,
             integrator: Integrator {
                 max_bounces: s.integrator.max_bounces,
                 russian_roulette_from: s.integrator.russian_roulette_from,

@@ -16,6 +16,10 @@ pub struct MethodTable {
     /// The method (default `tracer`).
     #[serde(default)]
     pub kind: Method,
+    /// Tracer: whether camera samples are jittered within the pixel (false: all through its
+    /// centre, aliased).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel_jitter: Option<bool>,
     /// Accumulation buffer: instants K averaged over the open shutter.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub instants: Option<u32>,
@@ -72,6 +76,7 @@ pub struct MethodTable {
 impl MethodTable {
     /// Every settings key of the table, in file order of the struct.
     pub const KEYS: &'static [&'static str] = &[
+        "pixel_jitter",
         "instants",
         "jitter",
         "samples_per_instant",
@@ -94,6 +99,7 @@ impl MethodTable {
     /// The settings keys written in this table.
     pub fn written_keys(&self) -> Vec<&'static str> {
         let written = [
+            self.pixel_jitter.is_some(),
             self.instants.is_some(),
             self.jitter.is_some(),
             self.samples_per_instant.is_some(),

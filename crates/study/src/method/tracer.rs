@@ -1,22 +1,36 @@
-//! The distribution ray tracer's settings: none beyond the A level's samples per pixel; its
+//! The distribution ray tracer's settings: beyond the A level's samples per pixel, only
+//! whether camera samples are jittered within the pixel (`pixel_jitter`, default true); its
 //! cost knob is the samples per pixel themselves.
 
 use super::{CurveInput, KeyError, MethodSettings, MethodTable, SweepSetting, sweep_levels};
 use crate::design::Preset;
 
-/// The tracer takes no settings of its own.
+/// The tracer's settings.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct TracerSettings;
+pub struct TracerSettings {
+    /// `pixel_jitter`: camera samples at random positions in the pixel (the box filter) or,
+    /// when false, all through the pixel's centre (aliased edges, as a rasterizer's).
+    pub pixel_jitter: Option<bool>,
+}
+
+impl TracerSettings {
+    /// Whether camera samples are jittered within the pixel (default true).
+    pub fn pixel_jitter(&self) -> bool {
+        self.pixel_jitter.unwrap_or(true)
+    }
+}
 
 impl MethodSettings for TracerSettings {
-    const KEYS: &'static [&'static str] = &[];
+    const KEYS: &'static [&'static str] = &["pixel_jitter"];
     const CURVE_INPUT: CurveInput = CurveInput::Ignored;
 
-    fn from_table(_: &MethodTable) -> Self {
-        TracerSettings
+    fn from_table(t: &MethodTable) -> Self {
+        TracerSettings { pixel_jitter: t.pixel_jitter }
     }
 
-    fn write_table(&self, _: &mut MethodTable) {}
+    fn write_table(&self, t: &mut MethodTable) {
+        t.pixel_jitter = self.pixel_jitter;
+    }
 
     fn check(&self) -> Result<(), KeyError> {
         Ok(())
@@ -36,7 +50,7 @@ impl MethodSettings for TracerSettings {
         spp.dedup();
         spp.into_iter()
             .map(|s| SweepSetting {
-                spec: super::MethodSpec::Tracer(TracerSettings),
+                spec: super::MethodSpec::Tracer(TracerSettings::default()),
                 knob: "spp",
                 value: s,
                 input_spp: s,

@@ -158,8 +158,8 @@ impl GpuAnalytic {
             return Ok(p.clone());
         }
         let scope = self.ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let [a, b] = spec.constants();
-        let constants = [a, b, ("SHADE", if shade { 1.0 } else { 0.0 })];
+        let [a, b, c] = spec.constants();
+        let constants = [a, b, c, ("SHADE", if shade { 1.0 } else { 0.0 })];
         let pipeline = self.ctx.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("analytic_pixel"),
             layout: Some(&self.pipeline_layout),

@@ -91,10 +91,17 @@ impl RenderMethod for Tracer {
 
     fn submit<'r>(
         renderer: &'r Renderer<'_>,
-        _: &TracerSettings,
+        settings: &TracerSettings,
         scene: &FrameScene,
         checkpoints: &[u32],
     ) -> Result<Submitted<'r>, RenderError> {
+        let centred;
+        let scene = if settings.pixel_jitter() == scene.pixel_jitter {
+            scene
+        } else {
+            centred = FrameScene { pixel_jitter: settings.pixel_jitter(), ..scene.clone() };
+            &centred
+        };
         match renderer.gpu_host::<TracerHost>() {
             Some(g) => g.tracer.submit_nested(scene, &g.env, checkpoints).map(Submitted::Gpu).map_err(tracer_error),
             None => Ok(Submitted::Ready(

@@ -124,7 +124,7 @@ pub fn render_frame_nested(scene: &FrameScene, env: &EnvironmentMap, checkpoints
                         let mut next = 0;
                         for i in 0..spp {
                             sampler.start_sample(i);
-                            let u = sampler.get_2d(dim::PIXEL);
+                            let u = if scene.pixel_jitter { sampler.get_2d(dim::PIXEL) } else { [0.5, 0.5] };
                             let ray = rays.ray(DVec2::new(f64::from(x) + u[0], f64::from(y) + u[1]));
                             let sphere = match &setup.fixed_sphere {
                                 Some(s) => *s,

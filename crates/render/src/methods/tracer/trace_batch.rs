@@ -46,7 +46,7 @@ pub fn trace_pixel(
     let mut sum = Vec3::from_array(acc.sum);
     for i in 0..batch.count {
         let index = batch.first_sample + i;
-        let u = sample_2d(seed, index, dim::PIXEL);
+        let u = if spec.pixel_jitter { sample_2d(seed, index, dim::PIXEL) } else { [0.5, 0.5] };
         let dir = normalize3(corner + sx * (x as f32 + u[0]) + sy * (y as f32 + u[1]));
         let t = if spec.time_sampling { to_unit(sample_1d_bits(seed, index, dim::TIME)) } else { 0.0 };
         let s = sphere_at(p, spec, t);

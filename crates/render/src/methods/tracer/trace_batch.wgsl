@@ -36,7 +36,10 @@ fn trace_batch(@builtin(global_invocation_id) gid: vec3<u32>) {
     var sum = vec3<f32>(acc.r, acc.g, acc.b);
     for (var i = 0u; i < batch.count; i++) {
         let index = batch.first_sample + i;
-        let u = sampler32_2d(seed, index, DIM_PIXEL);
+        var u = vec2<f32>(0.5, 0.5);
+        if PIXEL_JITTER {
+            u = sampler32_2d(seed, index, DIM_PIXEL);
+        }
         let dir = normalize3(corner + sx * (f32(x) + u.x) + sy * (f32(y) + u.y));
         var t = 0.0;
         if TIME_SAMPLING {

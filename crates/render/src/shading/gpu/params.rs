@@ -30,8 +30,8 @@ pub mod material_kind {
     pub const NOISE: u32 = 2;
 }
 
-/// The kernel's specialisation: the pipeline override constants `TIME_SAMPLING` and
-/// `MATERIAL`. A frame gets the cheapest kernel that renders it ([`Specialisation::of`]);
+/// The kernel's specialisation: the pipeline override constants `TIME_SAMPLING`,
+/// `MATERIAL` and `PIXEL_JITTER`. A frame gets the cheapest kernel that renders it ([`Specialisation::of`]);
 /// forcing a more general one renders the same image at more cost (which is how the saving
 /// is measured, and tested).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -40,18 +40,28 @@ pub struct Specialisation {
     pub time_sampling: bool,
     /// One of [`material_kind`].
     pub material: u32,
+    /// Camera samples are jittered within the pixel (false: all through its centre).
+    pub pixel_jitter: bool,
 }
 
 impl Specialisation {
     /// The cheapest kernel for `scene`: time sampling only for an open shutter with motion,
     /// texture code only for the material the scene has.
     pub fn of(scene: &FrameScene) -> Self {
-        Specialisation { time_sampling: scene.needs_time_sampling(), material: material_kind_of(&scene.material) }
+        Specialisation {
+            time_sampling: scene.needs_time_sampling(),
+            material: material_kind_of(&scene.material),
+            pixel_jitter: scene.pixel_jitter,
+        }
     }
 
     /// The override constants as wgpu takes them.
-    pub fn constants(&self) -> [(&'static str, f64); 2] {
-        [("TIME_SAMPLING", if self.time_sampling { 1.0 } else { 0.0 }), ("MATERIAL", f64::from(self.material))]
+    pub fn constants(&self) -> [(&'static str, f64); 3] {
+        [
+            ("TIME_SAMPLING", if self.time_sampling { 1.0 } else { 0.0 }),
+            ("MATERIAL", f64::from(self.material)),
+            ("PIXEL_JITTER", if self.pixel_jitter { 1.0 } else { 0.0 }),
+        ]
     }
 }
 

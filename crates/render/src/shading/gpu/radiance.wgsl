@@ -9,6 +9,9 @@
 
 override TIME_SAMPLING: bool = true;
 override MATERIAL: u32 = 2u;
+// Camera samples jittered within the pixel; false: all through its centre (the tracer's
+// kernel reads it, the analytic kernel samples pixel centres anyway).
+override PIXEL_JITTER: bool = true;
 
 struct FrameParams {
     cam_origin: vec4<f32>,
