@@ -6,7 +6,7 @@
 
 use std::io::Cursor;
 
-use study::color::srgb_encode;
+use study::color::{srgb_decode, srgb_encode};
 use study::scene::{Exposure, ToneMap};
 
 /// Errors of encoding or decoding images.
@@ -133,6 +133,23 @@ pub fn display_value(radiance: f32, exposure: &Exposure) -> f64 {
         ToneMap::Reinhard => exposed / (1.0 + exposed),
     };
     srgb_encode(mapped.clamp(0.0, 1.0))
+}
+
+/// The radiance whose display value is `display` (the inverse of [`display_value`] on
+/// (0, 1)): what a pixel an antialiasing filter blended in display values stores. A display
+/// value of 1 under the Reinhard curve, which no finite radiance reaches, gives the largest
+/// finite radiance; 0 gives 0.
+pub fn radiance_of_display(display: f64, exposure: &Exposure) -> f32 {
+    if display.is_nan() || display <= 0.0 {
+        return 0.0;
+    }
+    let mapped = srgb_decode(display.min(1.0));
+    let exposed = match exposure.tone_map {
+        ToneMap::Clamp => mapped,
+        ToneMap::Reinhard if mapped >= 1.0 => return f32::MAX,
+        ToneMap::Reinhard => mapped / (1.0 - mapped),
+    };
+    (exposed / exposure.stops.exp2()) as f32
 }
 
 /// 8-bit sRGB bytes (RGB, row-major) of the display image.

@@ -12,6 +12,7 @@ use study::manifest::GpuRecord;
 use study::method::MethodSpec;
 use study::scene::FrameScene;
 
+use crate::antialias::mlaa::host::GpuMlaa;
 use crate::env::EnvironmentMap;
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
 use crate::methods::GpuHosts;
@@ -75,6 +76,14 @@ pub enum DeviceError {
         /// Cause.
         source: Box<FilterError>,
     },
+    /// Morphological antialiasing could not be set up on the adapter.
+    #[error("GPU MLAA on {adapter}: {source}")]
+    Antialias {
+        /// The adapter.
+        adapter: String,
+        /// Cause.
+        source: Box<GpuError>,
+    },
 }
 
 pub(crate) fn add_seconds(a: Option<f64>, b: Option<f64>) -> Option<f64> {
@@ -96,6 +105,8 @@ pub enum Submitted<'r> {
     Ready(Vec<RenderedFrame>),
     /// On the GPU.
     Gpu(PendingFrame<'r>),
+    /// A frame whose scene asks for antialiasing, applied to every level when it finishes.
+    Antialiased(Box<Submitted<'r>>, Box<FrameScene>, Option<&'r GpuMlaa>),
 }
 
 impl Submitted<'_> {
@@ -103,6 +114,13 @@ impl Submitted<'_> {
     pub fn finish(self) -> Result<Vec<RenderedFrame>, RenderError> {
         match self {
             Submitted::Ready(levels) => Ok(levels),
+            Submitted::Antialiased(inner, scene, gpu) => {
+                let mut levels = inner.finish()?;
+                for level in &mut levels {
+                    crate::antialias::frame::antialias_frame(&mut level.image, &scene, gpu)?;
+                }
+                Ok(levels)
+            }
             Submitted::Gpu(pending) => {
                 let frame = pending.finish().map_err(crate::methods::tracer_error)?;
                 let mut levels: Vec<RenderedFrame> = frame
@@ -143,6 +161,12 @@ impl<'env> Renderer<'env> {
         let mut hosts = GpuHosts::new(ctx);
         let opened = crate::methods::open_tracer_host(&mut hosts, env)
             .and_then(|()| crate::methods::open_gpu(&mut hosts))
+            .and_then(|()| {
+                hosts.open(|h| {
+                    GpuMlaa::new(h.ctx().clone())
+                        .map_err(|e| DeviceError::Antialias { adapter: h.ctx().info.short(), source: Box::new(e) })
+                })
+            })
             .map(|()| hosts);
         match opened {
             Ok(gpu) => Ok(Renderer { env, gpu: Some(gpu) }),
@@ -217,6 +241,10 @@ impl<'env> Renderer<'env> {
         if !crate::methods::nests(method.kind()) && checkpoints.iter().any(|&k| k > 0 && k < scene.samples_per_pixel) {
             return Err(RenderError::NotNested(method.kind()));
         }
-        crate::methods::submit(self, method, scene, checkpoints)
+        let submitted = crate::methods::submit(self, method, scene, checkpoints)?;
+        Ok(match scene.antialias {
+            None => submitted,
+            Some(_) => Submitted::Antialiased(Box::new(submitted), Box::new(scene.clone()), self.gpu_host::<GpuMlaa>()),
+        })
     }
 }

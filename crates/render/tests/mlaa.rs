@@ -175,3 +175,104 @@ fn bad_settings_are_refused() {
     ));
     assert!(matches!(mlaa_cpu(3, 2, &img, &MlaaParams::default()), Err(MlaaError::Size { .. })));
 }
+
+mod common;
+
+use render::Renderer;
+use render::antialias::frame::antialias_frame;
+use render::env::EnvironmentMap;
+use render::io::{LinearImage, display_value, radiance_of_display};
+use study::scene::{Antialias, Exposure, ToneMap};
+
+const MLAA: Antialias = Antialias::Mlaa { threshold: 0.1, search_distance: 12 };
+
+#[test]
+fn display_values_map_back_to_their_radiance() {
+    for tone_map in [ToneMap::Reinhard, ToneMap::Clamp] {
+        for stops in [-1.0, 0.0, 2.0] {
+            let e = Exposure { stops, tone_map };
+            for r in [1e-4f32, 0.01, 0.1, 0.2, 0.5] {
+                if tone_map == ToneMap::Clamp && f64::from(r) * stops.exp2() >= 1.0 {
+                    continue; // clamped: no way back
+                }
+                let back = radiance_of_display(display_value(r, &e), &e);
+                assert!((back - r).abs() <= 2e-6 * r.max(1.0), "{tone_map:?} {stops}: {r} -> {back}");
+            }
+        }
+        assert_eq!(radiance_of_display(0.0, &Exposure { stops: 0.0, tone_map }), 0.0);
+    }
+}
+
+#[test]
+fn a_frame_is_antialiased_in_display_values_and_untouched_pixels_keep_their_radiance() {
+    let mut s = common::scene(
+        common::study_camera(96, 60),
+        study::scene::Material::Checker {
+            albedo_a: [0.9, 0.1, 0.1],
+            albedo_b: [0.9, 0.9, 0.9],
+            squares_around: 12,
+            squares_pole_to_pole: 6,
+        },
+        common::uniform(common::L),
+        2,
+    );
+    s.pixel_jitter = false;
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let renderer = Renderer::cpu(&env);
+    let spec = study::method::MethodSpec::default();
+    let plain = renderer.render(&spec, &s).unwrap().image;
+    s.antialias = Some(MLAA);
+    let smooth = renderer.render(&spec, &s).unwrap().image;
+    let display: Vec<[f32; 3]> = plain.pixels.iter().map(|p| p.map(|c| display_value(c, &s.exposure) as f32)).collect();
+    let expected = mlaa_cpu(96, 60, &display, &MlaaParams::default()).unwrap();
+    let mut changed = 0;
+    for i in 0..display.len() {
+        if display[i] == expected[i] {
+            assert_eq!(smooth.pixels[i], plain.pixels[i], "pixel {i} left alone keeps its radiance");
+        } else {
+            changed += 1;
+            for (&radiance, &want) in smooth.pixels[i].iter().zip(&expected[i]) {
+                let shown = display_value(radiance, &s.exposure) as f32;
+                assert!((shown - want).abs() < 1e-5, "pixel {i}: shows {shown}, MLAA gave {want}");
+            }
+        }
+    }
+    assert!(changed > 50, "{changed} pixels blended");
+}
+
+#[test]
+fn a_side_by_side_frame_is_filtered_one_eye_at_a_time() {
+    // Both eyes show the same shallow edge, which runs on across the seam: filtered as one
+    // image, the line would continue through the seam and the halves would differ.
+    let (w, h) = (48u32, 20u32);
+    let (eye, _) = half_plane(w, h, 0.08, 2.0, 8.0);
+    let mut s = common::scene(common::study_camera(w, h), common::flat(0.5), common::uniform(common::L), 1);
+    let mut right = s.views[0].clone();
+    right.seed += 1;
+    s.views.push(right);
+    s.antialias = Some(MLAA);
+    s.exposure = Exposure { stops: 0.0, tone_map: ToneMap::Clamp };
+    let linear: Vec<[f32; 3]> = eye.iter().map(|p| p.map(|d| radiance_of_display(f64::from(d), &s.exposure))).collect();
+    let mut image = LinearImage::new(2 * w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let p = linear[(y * w + x) as usize];
+            image.set(x, y, p);
+            image.set(x + w, y, p);
+        }
+    }
+    let whole: Vec<[f32; 3]> = image.pixels.iter().map(|p| p.map(|c| display_value(c, &s.exposure) as f32)).collect();
+    let across = mlaa_cpu(2 * w, h, &whole, &MlaaParams::default()).unwrap();
+    let halves_differ =
+        (0..h).any(|y| (0..w).any(|x| across[(y * 2 * w + x) as usize] != across[(y * 2 * w + x + w) as usize]));
+    assert!(halves_differ, "the test image must have a line across the seam");
+    antialias_frame(&mut image, &s, None).unwrap();
+    let mut blended = 0;
+    for y in 0..h {
+        for x in 0..w {
+            assert_eq!(image.get(x, y), image.get(x + w, y), "({x}, {y})");
+            blended += u32::from(image.get(x, y) != linear[(y * w + x) as usize]);
+        }
+    }
+    assert!(blended > 10, "{blended} pixels blended per eye");
+}

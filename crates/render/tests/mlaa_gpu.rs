@@ -87,3 +87,47 @@ fn every_pass_agrees_with_its_cpu_twin() {
         assert!(run.seconds > 0.0);
     }
 }
+
+mod common;
+
+#[test]
+fn a_gpu_renderer_antialiases_with_the_kernels_as_the_cpu_twin_does() {
+    use render::{DeviceChoice, Renderer};
+    if gpu::test_context("a_gpu_renderer_antialiases_with_the_kernels_as_the_cpu_twin_does").is_none() {
+        return;
+    }
+    let checker = study::scene::Material::Checker {
+        albedo_a: [0.9, 0.1, 0.1],
+        albedo_b: [0.9, 0.9, 0.9],
+        squares_around: 12,
+        squares_pole_to_pole: 6,
+    };
+    let mut s = common::scene(common::study_camera(72, 40), checker, common::uniform(common::L), 2);
+    s.pixel_jitter = false;
+    let env = render::env::EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let renderer = Renderer::open(DeviceChoice::Gpu, &env).unwrap();
+    let spec = study::method::MethodSpec::default();
+    let mut by_twin = renderer.render(&spec, &s).unwrap().image;
+    s.antialias = Some(study::scene::Antialias::Mlaa { threshold: 0.1, search_distance: 12 });
+    let by_kernels = renderer.render(&spec, &s).unwrap().image;
+    render::antialias::frame::antialias_frame(&mut by_twin, &s, None).unwrap();
+    let worst = by_kernels
+        .pixels
+        .iter()
+        .zip(&by_twin.pixels)
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / b[c].abs().max(1e-3)))
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-4, "largest relative difference {worst}");
+    assert_ne!(
+        by_kernels,
+        renderer
+            .render(&study::method::MethodSpec::default(), &{
+                let mut plain = s.clone();
+                plain.antialias = None;
+                plain
+            })
+            .unwrap()
+            .image,
+        "antialiasing changed nothing"
+    );
+}

@@ -364,6 +364,19 @@ fn default_pixel_jitter() -> bool {
     true
 }
 
+/// A filter applied to a frame's display values after it is rendered, one eye at a time.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase", tag = "kind")]
+pub enum Antialias {
+    /// Morphological antialiasing (the thesis's Part II).
+    Mlaa {
+        /// Smallest display-luminance step that is an edge, in (0, 1].
+        threshold: f64,
+        /// Longest search towards each end of a line, pixels (1-64).
+        search_distance: u32,
+    },
+}
+
 /// Everything needed to render one frame of one stimulus.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FrameScene {
@@ -393,6 +406,9 @@ pub struct FrameScene {
     /// `pixel_jitter` setting).
     #[serde(default = "default_pixel_jitter")]
     pub pixel_jitter: bool,
+    /// Antialiasing of the rendered frame's display values (a method level's `antialias`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub antialias: Option<Antialias>,
     /// Path termination.
     pub integrator: Integrator,
     /// Display mapping.

@@ -366,6 +366,19 @@ fn method_settings_must_belong_to_their_method_and_lie_in_range() {
     assert!(msg.contains("key `method`: a design with `[[factors.method]]` levels"), "{msg}");
     let (_, msg, _) = load_err(&format!("{}\n[method]\nkind = \"tracer\"\ntau = 2.0\n", shipped_text()));
     assert!(msg.contains("key `method.tau`: applies to guertin only, not to `tracer`"), "{msg}");
+    // Antialiasing of the display frame: any method's level, its settings checked.
+    let (_, msg, _) = load_err(&text.replace("taps = 35", "taps = 35\nantialias = \"mlaa\"\nmlaa_threshold = 1.5"));
+    assert!(msg.contains("key `factors.method[4].mlaa_threshold`: must lie in (0, 1], found 1.5"), "{msg}");
+    let (_, msg, _) = load_err(&text.replace("intervals = 8", "intervals = 8\nmlaa_search_distance = 8"));
+    assert!(
+        msg.contains("key `factors.method[5].mlaa_search_distance`: applies only with antialias = \"mlaa\""),
+        "{msg}"
+    );
+    let (_, msg, _) =
+        load_err(&format!("{}\n[method]\nantialias = \"mlaa\"\nmlaa_search_distance = 65\n", shipped_text()));
+    assert!(msg.contains("key `method.mlaa_search_distance`: must lie in 1..=64, found 65"), "{msg}");
+    let (_, msg, _) = load_err(&format!("{}\n[method]\nantialias = \"fxaa\"\n", shipped_text()));
+    assert!(msg.contains("unknown variant `fxaa`, expected `none` or `mlaa`"), "{msg}");
 }
 
 #[test]

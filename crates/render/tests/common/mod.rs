@@ -34,6 +34,7 @@ pub fn scene(camera: Camera, material: Material, environment: Environment, spp: 
         lighting: Lighting { environment, intensity: 1.0, rotation_y: 0.0 },
         samples_per_pixel: spp,
         pixel_jitter: true,
+        antialias: None,
         integrator: Integrator { max_bounces: 4, russian_roulette_from: 3 },
         exposure: Exposure { stops: 0.0, tone_map: ToneMap::Reinhard },
     }

@@ -149,6 +149,8 @@ pub struct Design {
     /// The typed method of each method table: `[method]`, or each `[[factors.method]]`
     /// level in file order.
     methods: Vec<MethodSpec>,
+    /// The antialiasing of each method table's display frames, in the same order.
+    antialias: Vec<Option<crate::scene::Antialias>>,
     text: String,
 }
 
@@ -192,10 +194,12 @@ impl Design {
             },
             spec,
             methods: Vec::new(),
+            antialias: Vec::new(),
             text: text.to_owned(),
         };
         design.validate()?;
         design.methods = design.typed_methods()?;
+        design.antialias = design.typed_antialias()?;
         design.lighting = design.resolve_lighting()?;
         Ok(design)
     }
@@ -243,11 +247,21 @@ impl Design {
     /// The method and settings that render `id`: its method level's, or the design's `[method]`.
     pub fn method_of(&self, id: &StimulusId) -> Result<MethodSpec, DesignError> {
         self.check_id(id)?;
-        let level = match id.method {
+        Ok(self.methods[self.method_level(id)].clone())
+    }
+
+    /// The antialiasing of `id`'s display frames: its method level's, or the design's
+    /// `[method]`'s.
+    pub fn antialias_of(&self, id: &StimulusId) -> Result<Option<crate::scene::Antialias>, DesignError> {
+        self.check_id(id)?;
+        Ok(self.antialias.get(self.method_level(id)).copied().flatten())
+    }
+
+    fn method_level(&self, id: &StimulusId) -> usize {
+        match id.method {
             Some(tag) => self.method_tags().iter().position(|t| *t == tag).unwrap_or(0),
             None => 0,
-        };
-        Ok(self.methods[level].clone())
+        }
     }
 
     /// The design's name.

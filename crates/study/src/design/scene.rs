@@ -164,6 +164,7 @@ impl Design {
                 ))
             })?,
             pixel_jitter: true,
+            antialias: self.antialias_of(id)?,
             integrator: Integrator {
                 max_bounces: s.integrator.max_bounces,
                 russian_roulette_from: s.integrator.russian_roulette_from,

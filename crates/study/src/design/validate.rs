@@ -335,6 +335,17 @@ impl Design {
             .collect()
     }
 
+    /// The antialiasing each method table asks for ([`Design::method_tables`]' order), its
+    /// settings checked with the file, line and key named.
+    pub(super) fn typed_antialias(&self) -> Result<Vec<Option<crate::scene::Antialias>>, DesignError> {
+        self.method_tables()
+            .into_iter()
+            .map(|(table, index, m)| {
+                crate::method::antialias::antialias_of(m).map_err(|e| self.invalid(table, index, e.key, e.message))
+            })
+            .collect()
+    }
+
     /// What one frame of each method costs, in every preset at every A level, within
     /// [`MAX_FRAME_SAMPLES`] light paths and (rasterizers) [`MAX_FRAME_TRIANGLE_PIXELS`]
     /// triangle-pixel pairs, counting both eyes of a stereo frame. The error names the

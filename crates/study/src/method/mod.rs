@@ -30,6 +30,7 @@ macro_rules! defaults {
 
 mod accum;
 mod analytic;
+pub mod antialias;
 mod guertin;
 mod mcguire;
 mod table;
@@ -316,7 +317,7 @@ impl MethodSpec {
     pub fn from_table(table: &MethodTable) -> Result<MethodSpec, KeyError> {
         let kind = table.kind;
         for key in table.written_keys() {
-            if !kind.keys().contains(&key) {
+            if !kind.keys().contains(&key) && !antialias::KEYS.contains(&key) {
                 let takes: Vec<&str> =
                     Method::ALL.into_iter().filter(|m| m.keys().contains(&key)).map(Method::name).collect();
                 return Err(KeyError {
@@ -384,7 +385,9 @@ mod tests {
 
     #[test]
     fn every_key_of_the_table_belongs_to_some_method_and_round_trips() {
-        let mut all: Vec<&str> = Method::ALL.into_iter().flat_map(Method::keys).copied().collect();
+        // Each method's keys, and the display frame's antialiasing keys every method takes.
+        let mut all: Vec<&str> =
+            Method::ALL.into_iter().flat_map(Method::keys).copied().chain(antialias::KEYS).collect();
         all.sort_unstable();
         all.dedup();
         assert_eq!(all.len(), MethodTable::KEYS.len(), "{all:?}");

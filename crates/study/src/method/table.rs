@@ -20,6 +20,15 @@ pub struct MethodTable {
     /// centre, aliased).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pixel_jitter: Option<bool>,
+    /// Any method: antialiasing of the display frame (`none` or `mlaa`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub antialias: Option<super::antialias::AntialiasKind>,
+    /// Any method with `antialias = "mlaa"`: the luminance step that makes an edge.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mlaa_threshold: Option<f64>,
+    /// Any method with `antialias = "mlaa"`: the search distance in pixels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mlaa_search_distance: Option<u32>,
     /// Accumulation buffer: instants K averaged over the open shutter.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub instants: Option<u32>,
@@ -77,6 +86,9 @@ impl MethodTable {
     /// Every settings key of the table, in file order of the struct.
     pub const KEYS: &'static [&'static str] = &[
         "pixel_jitter",
+        "antialias",
+        "mlaa_threshold",
+        "mlaa_search_distance",
         "instants",
         "jitter",
         "samples_per_instant",
@@ -100,6 +112,9 @@ impl MethodTable {
     pub fn written_keys(&self) -> Vec<&'static str> {
         let written = [
             self.pixel_jitter.is_some(),
+            self.antialias.is_some(),
+            self.mlaa_threshold.is_some(),
+            self.mlaa_search_distance.is_some(),
             self.instants.is_some(),
             self.jitter.is_some(),
             self.samples_per_instant.is_some(),

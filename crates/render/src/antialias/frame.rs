@@ -1,0 +1,51 @@
+//! A frame's antialiasing as its scene asks for it (`FrameScene::antialias`, a method level's
+//! `antialias`): applied to the rendered frame's display values one eye at a time (a
+//! side-by-side frame is never filtered across its seam), on the renderer's GPU where one is
+//! open, else by the CPU twin. The radiance of a pixel the filter leaves alone is kept bit
+//! for bit; a blended pixel's radiance is the one its new display value shows
+//! ([`crate::io::radiance_of_display`]), so the EXR and the PNG of a frame agree.
+
+use study::scene::{Antialias, FrameScene};
+
+use super::mlaa::host::GpuMlaa;
+use super::mlaa::{MlaaParams, mlaa_cpu};
+use crate::io::{LinearImage, display_value, radiance_of_display};
+use crate::method::RenderError;
+
+/// Antialiases `image` (the composed frame of `scene`) as `scene` asks; nothing when it
+/// asks for none.
+pub fn antialias_frame(image: &mut LinearImage, scene: &FrameScene, gpu: Option<&GpuMlaa>) -> Result<(), RenderError> {
+    let Some(Antialias::Mlaa { threshold, search_distance }) = scene.antialias else { return Ok(()) };
+    let params = MlaaParams { threshold: threshold as f32, search_distance };
+    let exposure = scene.exposure;
+    let mut x0 = 0u32;
+    for view in &scene.views {
+        let (w, h) = (view.camera.width, view.camera.height);
+        if x0 + w > image.width || h != image.height {
+            return Err(RenderError::Scene(format!(
+                "antialiasing: the frame is {}x{}, its eyes need {}x{h} from x = {x0}",
+                image.width, image.height, w
+            )));
+        }
+        let display: Vec<[f32; 3]> = (0..h)
+            .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
+            .map(|(x, y)| image.get(x, y).map(|c| display_value(c, &exposure) as f32))
+            .collect();
+        let blended = match gpu {
+            Some(g) => g.run(w, h, &display, &params).map(|r| r.color),
+            None => mlaa_cpu(w, h, &display, &params),
+        }
+        .map_err(|e| match e {
+            super::mlaa::MlaaError::Gpu(e) => RenderError::Gpu(format!("MLAA: {e}")),
+            e => RenderError::Settings(format!("MLAA: {e}")),
+        })?;
+        for (i, (before, after)) in display.iter().zip(&blended).enumerate() {
+            if before != after {
+                let (x, y) = (x0 + i as u32 % w, i as u32 / w);
+                image.set(x, y, after.map(|d| radiance_of_display(f64::from(d), &exposure)));
+            }
+        }
+        x0 += w;
+    }
+    Ok(())
+}
