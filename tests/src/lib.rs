@@ -75,3 +75,51 @@ pub fn stdout(o: &Output) -> String {
 pub fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
+
+/// Renders the quick preset's mono sequences of `design` that `only` selects (e.g.
+/// `M3 S3 T5 A1,A5`) on the CPU into `out`. Panics with the command's stderr when it fails.
+pub fn render_quick_set(design: &Path, only: &str, out: &Path) {
+    let (design, out_arg) = (design.to_string_lossy().into_owned(), out.to_string_lossy().into_owned());
+    let args = ["stimuli", "render", "--design", &design, "--preset", "quick", "--views", "mono", "--only", only];
+    let out = run(&[&args[..], &["--device", "cpu", "--out", &out_arg, "--progress", "quiet"]].concat());
+    assert!(out.status.success(), "{}", stderr(&out));
+}
+
+/// Runs `experiment` on the stimulus set `set` with three simulated participants (Thurstone
+/// observers, seeds 1-3) into `results`, then `blurlab analyze --json` of its results into
+/// `report`: the analysis as JSON. Panics with the command's stderr when one fails.
+pub fn simulate_and_analyze(experiment: &Path, set: &Path, results: &Path, report: &Path) -> serde_json::Value {
+    let text = |p: &Path| p.to_string_lossy().into_owned();
+    let (experiment_arg, set_arg, results_arg) = (text(experiment), text(set), text(results));
+    for (participant, seed) in [("P1", "1"), ("P2", "2"), ("P3", "3")] {
+        let out = run(&[
+            "run",
+            &experiment_arg,
+            "--stimuli",
+            &set_arg,
+            "--participant",
+            participant,
+            "--results",
+            &results_arg,
+            "--simulate",
+            "thurstone",
+            "--seed",
+            seed,
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+    }
+    let name = experiment.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let out = run(&[
+        "analyze",
+        &text(&results.join(name)),
+        "--manifest",
+        &set_arg,
+        "--experiments",
+        &text(&repo_root().join("experiments")),
+        "--out",
+        &text(report),
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("analyze --json: {e}: {}", stdout(&out)))
+}

@@ -5,34 +5,14 @@
 
 #![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
 
-use blurlab_e2e::{repo_root, run};
+use blurlab_e2e::repo_root;
 use study::manifest::SequenceManifest;
 
 #[test]
 fn an_antialiasing_set_renders_is_judged_and_grouped() {
     let dir = tempfile::tempdir().unwrap();
     let set = dir.path().join("set");
-    let set_arg = set.to_string_lossy().into_owned();
-    let design = repo_root().join("stimuli/antialiasing.toml").to_string_lossy().into_owned();
-    let out = run(&[
-        "stimuli",
-        "render",
-        "--design",
-        &design,
-        "--preset",
-        "quick",
-        "--views",
-        "mono",
-        "--only",
-        "M2 S1 T1 A2",
-        "--device",
-        "cpu",
-        "--out",
-        &set_arg,
-        "--progress",
-        "quiet",
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    blurlab_e2e::render_quick_set(&repo_root().join("stimuli/antialiasing.toml"), "M2 S1 T1 A2", &set);
     let tags = ["analytic", "analytic2", "analytic3", "analytic4", "analytic5"];
     for tag in tags {
         let m = SequenceManifest::read(&set.join(format!("M2-S1-T1-A2-{tag}")).join("manifest.json")).unwrap();
@@ -45,38 +25,12 @@ fn an_antialiasing_set_renders_is_judged_and_grouped() {
         let mlaa = std::fs::read(set.join("M2-S1-T1-A2-analytic2").join(&name)).unwrap();
         assert!(aliased != mlaa, "{name}: MLAA changed nothing");
     }
-    let results = dir.path().join("results");
-    let experiment = repo_root().join("experiments/mono-antialiasing.toml");
-    for (participant, seed) in [("P1", "1"), ("P2", "2"), ("P3", "3")] {
-        let out = run(&[
-            "run",
-            experiment.to_str().unwrap(),
-            "--stimuli",
-            &set_arg,
-            "--participant",
-            participant,
-            "--results",
-            results.to_str().unwrap(),
-            "--simulate",
-            "thurstone",
-            "--seed",
-            seed,
-        ]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    }
-    let out = run(&[
-        "analyze",
-        results.join("mono-antialiasing").to_str().unwrap(),
-        "--manifest",
-        &set_arg,
-        "--experiments",
-        repo_root().join("experiments").to_str().unwrap(),
-        "--out",
-        dir.path().join("report").to_str().unwrap(),
-        "--json",
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let report = blurlab_e2e::simulate_and_analyze(
+        &repo_root().join("experiments/mono-antialiasing.toml"),
+        &set,
+        &dir.path().join("results"),
+        &dir.path().join("report"),
+    );
     let varying: Vec<&str> =
         report["experiments"][0]["varying"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
     assert_eq!(varying, ["method"]);

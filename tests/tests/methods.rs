@@ -19,27 +19,7 @@ fn methods_design() -> String {
 fn a_methods_set_renders_is_judged_and_grouped_by_method() {
     let dir = tempfile::tempdir().unwrap();
     let set = dir.path().join("set");
-    let set_arg = set.to_string_lossy().into_owned();
-    let design = methods_design();
-    let out = run(&[
-        "stimuli",
-        "render",
-        "--design",
-        &design,
-        "--preset",
-        "quick",
-        "--views",
-        "mono",
-        "--only",
-        "M3 S3 T5 A1,A5",
-        "--device",
-        "cpu",
-        "--out",
-        &set_arg,
-        "--progress",
-        "quiet",
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    blurlab_e2e::render_quick_set(&repo_root().join("stimuli/methods.toml"), "M3 S3 T5 A1,A5", &set);
     let index: serde_json::Value = serde_json::from_slice(&std::fs::read(set.join("index.json")).unwrap()).unwrap();
     let ids: Vec<&str> = index["sequences"].as_array().unwrap().iter().map(|s| s["id"].as_str().unwrap()).collect();
     assert_eq!(ids.len(), 10, "{ids:?}");
@@ -83,38 +63,13 @@ fn a_methods_set_renders_is_judged_and_grouped_by_method() {
         assert!(g != a, "{name}");
     }
 
-    let results = dir.path().join("results");
-    for (participant, seed) in [("P1", "1"), ("P2", "2"), ("P3", "3")] {
-        let out = run(&[
-            "run",
-            repo_root().join("experiments/mono-methods.toml").to_str().unwrap(),
-            "--stimuli",
-            &set_arg,
-            "--participant",
-            participant,
-            "--results",
-            results.to_str().unwrap(),
-            "--simulate",
-            "thurstone",
-            "--seed",
-            seed,
-        ]);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    }
-    let out = run(&[
-        "analyze",
-        results.join("mono-methods").to_str().unwrap(),
-        "--manifest",
-        &set_arg,
-        "--experiments",
-        repo_root().join("experiments").to_str().unwrap(),
-        "--out",
-        dir.path().join("report").to_str().unwrap(),
-        "--json",
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let text = String::from_utf8_lossy(&out.stdout);
-    let report: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let report = blurlab_e2e::simulate_and_analyze(
+        &repo_root().join("experiments/mono-methods.toml"),
+        &set,
+        &dir.path().join("results"),
+        &dir.path().join("report"),
+    );
+    let text = report.to_string();
     let experiment = &report["experiments"][0];
     let varying: Vec<&str> = experiment["varying"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
     assert_eq!(varying, ["samples", "method"], "{text}");

@@ -276,3 +276,35 @@ fn a_side_by_side_frame_is_filtered_one_eye_at_a_time() {
     }
     assert!(blended > 10, "{blended} pixels blended per eye");
 }
+
+#[test]
+fn non_finite_radiance_stays_in_its_pixel() {
+    let (w, h) = (120u32, 40u32);
+    let (eye, _) = half_plane(w, h, 0.15, 3.0, 9.0);
+    let mut s = common::scene(common::study_camera(w, h), common::flat(0.5), common::uniform(common::L), 1);
+    s.antialias = Some(MLAA);
+    let mut image = LinearImage::new(w, h);
+    for (p, d) in image.pixels.iter_mut().zip(&eye) {
+        *p = d.map(|d| radiance_of_display(f64::from(d), &s.exposure));
+    }
+    let mut plain = image.clone();
+    antialias_frame(&mut plain, &s, None).unwrap();
+    // Non-finite values on the edge, and an HDR value far above the display's white.
+    let (nan, inf, hot) = ((20, 11), (60, 17), (100, 23));
+    image.set(nan.0, nan.1, [f32::NAN, 1.0, 1.0]);
+    image.set(inf.0, inf.1, [f32::INFINITY; 3]);
+    image.set(hot.0, hot.1, [1e6; 3]);
+    antialias_frame(&mut image, &s, None).unwrap();
+    assert!(image.get(nan.0, nan.1)[0].is_nan() && image.get(inf.0, inf.1) == [f32::INFINITY; 3]);
+    for y in 0..h {
+        for x in 0..w {
+            assert!(image.get(x, y).iter().all(|v| v.is_finite()) || (x, y) == nan || (x, y) == inf, "({x}, {y})");
+            // They break the edge's lines, which changes blends within a search distance
+            // along them, and no further.
+            let near = |p: (u32, u32)| x.abs_diff(p.0).max(y.abs_diff(p.1)) <= 13;
+            if !near(nan) && !near(inf) && !near(hot) {
+                assert_eq!(image.get(x, y), plain.get(x, y), "({x}, {y}) away from the special pixels");
+            }
+        }
+    }
+}

@@ -20,6 +20,34 @@ pub struct FrameBench {
     design: std::path::PathBuf,
 }
 
+/// The GPU a benchmark's `--device` asks for: none for `cpu`; for `auto` a hardware adapter
+/// or none; for `gpu` a hardware adapter, else a software one, else an error.
+pub fn bench_device(device: crate::cmd::stimuli::DeviceArg) -> anyhow::Result<Option<gpu::GpuContext>> {
+    use crate::cmd::stimuli::DeviceArg;
+    let adapters = match device {
+        DeviceArg::Cpu => return Ok(None),
+        DeviceArg::Auto => gpu::AdapterChoice::HardwareOnly,
+        DeviceArg::Gpu => gpu::AdapterChoice::HardwareThenSoftware,
+    };
+    match gpu::acquire(adapters, &render::methods::tracer::host::device_request()) {
+        Ok(ctx) => Ok(Some(ctx)),
+        Err(_) if matches!(device, DeviceArg::Auto) => Ok(None),
+        Err(e) => Err(crate::cmd::BadInput(format!("--device gpu: {e}")).into()),
+    }
+}
+
+/// An image-space post-process's benchmark size: 1280x720 unless given, the size its
+/// papers time it at (the filters', MLAA's).
+#[derive(clap::Args)]
+pub struct PostProcessSize {
+    /// Image width.
+    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: u32,
+}
+
 /// The benchmark frame's size (the analytic rasterizer's benchmarks).
 #[derive(clap::Args)]
 pub struct FrameSize {

@@ -3,7 +3,8 @@
 //! side-by-side frame is never filtered across its seam), on the renderer's GPU where one is
 //! open, else by the CPU twin. The radiance of a pixel the filter leaves alone is kept bit
 //! for bit; a blended pixel's radiance is the one its new display value shows
-//! ([`crate::io::radiance_of_display`]), so the EXR and the PNG of a frame agree.
+//! ([`crate::io::radiance_of_display`]), so the EXR and the PNG of a frame agree. A pixel
+//! whose radiance is NaN or infinite is left as it is and blends into no neighbour.
 
 use study::scene::{Antialias, FrameScene};
 
@@ -27,9 +28,18 @@ pub fn antialias_frame(image: &mut LinearImage, scene: &FrameScene, gpu: Option<
                 image.width, image.height, w
             )));
         }
+        // A pixel with a non-finite channel enters as NaN: MLAA finds no edge at it, so it
+        // is neither blended nor blended into (its radiance has no display value to share).
         let display: Vec<[f32; 3]> = (0..h)
             .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
-            .map(|(x, y)| image.get(x, y).map(|c| display_value(c, &exposure) as f32))
+            .map(|(x, y)| {
+                let c = image.get(x, y);
+                if c.iter().all(|v| v.is_finite()) {
+                    c.map(|v| display_value(v, &exposure) as f32)
+                } else {
+                    [f32::NAN; 3]
+                }
+            })
             .collect();
         let blended = match gpu {
             Some(g) => g.run(w, h, &display, &params).map(|r| r.color),
@@ -40,7 +50,7 @@ pub fn antialias_frame(image: &mut LinearImage, scene: &FrameScene, gpu: Option<
             e => RenderError::Settings(format!("MLAA: {e}")),
         })?;
         for (i, (before, after)) in display.iter().zip(&blended).enumerate() {
-            if before != after {
+            if before.map(f32::to_bits) != after.map(f32::to_bits) {
                 let (x, y) = (x0 + i as u32 % w, i as u32 / w);
                 image.set(x, y, after.map(|d| radiance_of_display(f64::from(d), &exposure)));
             }

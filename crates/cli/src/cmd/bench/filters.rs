@@ -4,7 +4,6 @@
 
 use render::measure::filters::{FilterTimingOptions, benchmark_gbuffer, run_filter_timing};
 
-use crate::cmd::BadInput;
 use crate::cmd::stimuli::{DeviceArg, load_design};
 
 /// Arguments.
@@ -12,12 +11,8 @@ use crate::cmd::stimuli::{DeviceArg, load_design};
 pub struct Args {
     #[command(flatten)]
     frame: super::FrameBench,
-    /// Image width.
-    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    width: u32,
-    /// Image height.
-    #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    height: u32,
+    #[command(flatten)]
+    size: super::PostProcessSize,
     /// Taps N of both filters.
     #[arg(long, default_value_t = 35, value_parser = clap::value_parser!(u32).range(1..=1024))]
     taps: u32,
@@ -36,21 +31,14 @@ pub struct Args {
 /// Runs the benchmark.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let design = load_design(&args.frame.design)?;
-    let adapters = match args.device {
-        DeviceArg::Cpu => None,
-        DeviceArg::Auto => Some(gpu::AdapterChoice::HardwareOnly),
-        DeviceArg::Gpu => Some(gpu::AdapterChoice::HardwareThenSoftware),
-    };
-    let filters = match adapters.map(|a| gpu::acquire(a, &render::methods::tracer::host::device_request())) {
+    let filters = match super::bench_device(args.device)? {
+        Some(ctx) => Some(render::methods::post_process::GpuFilters::new(ctx)?),
         None => None,
-        Some(Ok(ctx)) => Some(render::methods::post_process::GpuFilters::new(ctx)?),
-        Some(Err(_)) if matches!(args.device, DeviceArg::Auto) => None,
-        Some(Err(e)) => return Err(BadInput(format!("--device gpu: {e}")).into()),
     };
-    let g = benchmark_gbuffer(&design, args.width, args.height)?;
+    let g = benchmark_gbuffer(&design, args.size.width, args.size.height)?;
     let opts = FilterTimingOptions {
-        width: args.width,
-        height: args.height,
+        width: args.size.width,
+        height: args.size.height,
         taps: args.taps,
         rounds: args.rounds,
         cpu_rounds: args.cpu_rounds,
@@ -66,8 +54,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 r["gpu_ms_median"].as_f64().unwrap_or(f64::NAN),
                 result["adapter"]["name"].as_str().unwrap_or("none"),
                 r["cpu_twin_ms"].as_f64().unwrap_or(f64::NAN),
-                args.width,
-                args.height,
+                args.size.width,
+                args.size.height,
                 args.taps
             );
         }

@@ -14,12 +14,8 @@ use crate::cmd::stimuli::{DeviceArg, load_design};
 pub struct Args {
     #[command(flatten)]
     frame: super::FrameBench,
-    /// Image width.
-    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    width: u32,
-    /// Image height.
-    #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    height: u32,
+    #[command(flatten)]
+    size: super::PostProcessSize,
     /// Samples per pixel of the traced input.
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=4096))]
     spp: u32,
@@ -46,21 +42,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let params = MlaaParams { threshold: args.threshold, search_distance: args.search_distance };
     params.check().map_err(|e| BadInput(format!("--threshold/--search-distance: {e}")))?;
     let design = load_design(&args.frame.design)?;
-    let adapters = match args.device {
-        DeviceArg::Cpu => None,
-        DeviceArg::Auto => Some(gpu::AdapterChoice::HardwareOnly),
-        DeviceArg::Gpu => Some(gpu::AdapterChoice::HardwareThenSoftware),
-    };
-    let mlaa = match adapters.map(|a| gpu::acquire(a, &render::methods::tracer::host::device_request())) {
+    let mlaa = match super::bench_device(args.device)? {
+        Some(ctx) => Some(GpuMlaa::new(ctx)?),
         None => None,
-        Some(Ok(ctx)) => Some(GpuMlaa::new(ctx)?),
-        Some(Err(_)) if matches!(args.device, DeviceArg::Auto) => None,
-        Some(Err(e)) => return Err(BadInput(format!("--device gpu: {e}")).into()),
     };
-    let display = benchmark_display(&design, args.width, args.height, args.spp)?;
+    let display = benchmark_display(&design, args.size.width, args.size.height, args.spp)?;
     let opts = MlaaTimingOptions {
-        width: args.width,
-        height: args.height,
+        width: args.size.width,
+        height: args.size.height,
         spp: args.spp,
         params,
         rounds: args.rounds,
@@ -75,8 +64,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             result["gpu_ms_median"].as_f64().unwrap_or(f64::NAN),
             result["adapter"]["name"].as_str().unwrap_or("none"),
             result["cpu_twin_ms"].as_f64().unwrap_or(f64::NAN),
-            args.width,
-            args.height,
+            args.size.width,
+            args.size.height,
             100.0 * result["blended_pixel_fraction"].as_f64().unwrap_or(f64::NAN),
         );
     }

@@ -13,7 +13,6 @@ use std::path::PathBuf;
 use render::measure::tracer::{BenchOptions, run_benchmark};
 use render::measure::tracer_gpu::{GpuBenchOptions, run_gpu_benchmark};
 
-use crate::cmd::BadInput;
 use crate::cmd::stimuli::DeviceArg;
 
 /// Arguments.
@@ -54,15 +53,9 @@ pub struct Args {
 }
 
 fn gpu_tracer(device: DeviceArg) -> anyhow::Result<Option<render::methods::tracer::GpuTracer>> {
-    let adapters = match device {
-        DeviceArg::Cpu => return Ok(None),
-        DeviceArg::Auto => gpu::AdapterChoice::HardwareOnly,
-        DeviceArg::Gpu => gpu::AdapterChoice::HardwareThenSoftware,
-    };
-    match gpu::acquire(adapters, &render::methods::tracer::host::device_request()) {
-        Ok(ctx) => Ok(Some(render::methods::tracer::GpuTracer::new(ctx)?)),
-        Err(_) if matches!(device, DeviceArg::Auto) => Ok(None),
-        Err(e) => Err(BadInput(format!("--device gpu: {e}")).into()),
+    match super::bench_device(device)? {
+        Some(ctx) => Ok(Some(render::methods::tracer::GpuTracer::new(ctx)?)),
+        None => Ok(None),
     }
 }
 
