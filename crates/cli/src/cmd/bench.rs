@@ -3,6 +3,7 @@
 pub mod analysis;
 pub mod analytic;
 pub mod analytic_accuracy;
+pub mod antialiasing;
 pub mod filters;
 pub mod methods;
 pub mod mlaa;
@@ -76,6 +77,8 @@ enum Which {
     Methods(methods::Args),
     /// Milliseconds per frame of morphological antialiasing (GPU timestamps, CPU twin beside).
     Mlaa(mlaa::Args),
+    /// Each antialiasing level's error on edge pixels against an 8 x 8-point reference.
+    Antialiasing(antialiasing::Args),
     /// Analysis speed: grouping, bootstrap scaling, W quantiles.
     Analysis(analysis::Args),
     /// Runner: sequence decode/upload time, memory, frame pacing.
@@ -93,6 +96,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Which::Filters(a) => filters::run(a),
         Which::Methods(a) => methods::run(a),
         Which::Mlaa(a) => mlaa::run(a),
+        Which::Antialiasing(a) => antialiasing::run(a),
         Which::Analysis(a) => analysis::run(a),
         Which::Playback(a) => playback::run(a),
         Which::Analytic(a) => analytic::run(a),

@@ -4,12 +4,14 @@
 //! methods`); `tracer`, `tracer_gpu`, `analytic` and `filters` are the benchmarks of `blurlab
 //! bench` (the tracer's benchmark frame and its peers, the GPU tracer, the analytic
 //! rasterizer, the post-process filters); `mlaa`, morphological antialiasing's time per
-//! frame (`bench mlaa`); `analytic_accuracy` measures the rasterizer's
+//! frame (`bench mlaa`); `antialiasing`, each antialiasing level's error on edge pixels
+//! against a converged reference (`bench antialiasing`); `analytic_accuracy` measures the rasterizer's
 //! depth, coverage and contact-shadow errors (`bench analytic-accuracy`). Nothing here is
 //! needed to render a frame.
 
 pub mod analytic;
 pub mod analytic_accuracy;
+pub mod antialiasing;
 pub mod cost;
 pub mod filters;
 pub mod methods;
