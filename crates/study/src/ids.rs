@@ -229,19 +229,25 @@ impl FromStr for StimulusId {
 
     fn from_str(text: &str) -> Result<Self, Self::Err> {
         let err = |reason: String| IdError { text: text.to_owned(), reason };
-        let mut parts: Vec<&str> = text.split('-').collect();
-        let view = if parts.last() == Some(&"stereo") {
-            parts.pop();
-            View::Stereo
-        } else {
-            View::Mono
-        };
+        let (mut parts, view) = split_view(text);
         let method = match parts.len() {
             5 => Some(parts.pop().unwrap_or_default().parse::<MethodTag>().map_err(err)?),
             _ => None,
         };
         let levels: [u8; 4] = parse_levels(&parts).map_err(err)?;
         Ok(StimulusId { material: levels[0], speed: levels[1], shutter: levels[2], samples: levels[3], method, view })
+    }
+}
+
+/// The `-`-separated parts of an id or cell label, without its `-stereo` suffix, and the view
+/// that suffix names.
+fn split_view(text: &str) -> (Vec<&str>, View) {
+    let mut parts: Vec<&str> = text.split('-').collect();
+    if parts.last() == Some(&"stereo") {
+        parts.pop();
+        (parts, View::Stereo)
+    } else {
+        (parts, View::Mono)
     }
 }
 
@@ -273,13 +279,7 @@ impl Cell {
             return Ok((id.cell(), id.view));
         }
         let err = |reason: String| IdError { text: text.to_owned(), reason };
-        let mut parts: Vec<&str> = text.split('-').collect();
-        let view = if parts.last() == Some(&"stereo") {
-            parts.pop();
-            View::Stereo
-        } else {
-            View::Mono
-        };
+        let (parts, view) = split_view(text);
         let [material, speed, shutter] = parse_levels(&parts).map_err(err)?;
         Ok((Cell { material, speed, shutter }, view))
     }

@@ -16,6 +16,7 @@ use serde_json::{Value, json};
 use study::design::Design;
 use study::ids::{Cell, StimulusId, View};
 use study::method::MethodSpec;
+use study::stats::Summary;
 
 use crate::antialias::mlaa::edges::detect_edges;
 use crate::env::EnvironmentMap;
@@ -116,27 +117,23 @@ pub fn run_antialiasing_quality(design: &Design, opts: &AntialiasingOptions) -> 
         let srgb = to_srgb8(&image, &exposure);
         let edges = edge_pixels.get_or_insert_with(|| edge_mask(w, h, &srgb));
         let flip = perceptual::flip(&reference_image, &SrgbImage::new(w, h, srgb.clone())?, ppd)?;
-        let squared = |i: usize| -> f64 {
-            (0..3)
-                .map(|c| ((f64::from(srgb[3 * i + c]) - f64::from(reference[3 * i + c])) / 255.0).powi(2))
-                .sum::<f64>()
-                / 3.0
-        };
-        let pixels = (w * h) as usize;
-        let on_edges: Vec<usize> = (0..pixels).filter(|&i| edges[i]).collect();
-        let mean = |idx: &mut dyn Iterator<Item = usize>, f: &dyn Fn(usize) -> f64| {
-            let (s, n) = idx.fold((0.0, 0usize), |(s, n), i| (s + f(i), n + 1));
-            if n == 0 { f64::NAN } else { s / n as f64 }
-        };
-        let flip_at = |i: usize| f64::from(flip.values[i]);
+        // Per pixel: the squared display error (mean over the channels) and FLIP.
+        let squared: Vec<f64> = srgb
+            .chunks_exact(3)
+            .zip(reference.chunks_exact(3))
+            .map(|(p, q)| (0..3).map(|c| ((f64::from(p[c]) - f64::from(q[c])) / 255.0).powi(2)).sum::<f64>() / 3.0)
+            .collect();
+        let flips: Vec<f64> = flip.values.iter().map(|&v| f64::from(v)).collect();
+        let on_edges =
+            |v: &[f64]| -> Vec<f64> { v.iter().zip(edges.iter()).filter(|(_, e)| **e).map(|(x, _)| *x).collect() };
         levels.push(json!({
             "id": id.to_string(),
             "method": spec.kind().name(),
             "level": design.spec.factors.method.get(k).and_then(|m| m.name.clone()),
             "seconds": seconds,
-            "rmse_edges": mean(&mut on_edges.iter().copied(), &squared).sqrt(),
-            "rmse_all": mean(&mut (0..pixels), &squared).sqrt(),
-            "flip_edges": mean(&mut on_edges.iter().copied(), &flip_at),
+            "rmse_edges": Summary::of(&on_edges(&squared)).mean.sqrt(),
+            "rmse_all": Summary::of(&squared).mean.sqrt(),
+            "flip_edges": Summary::of(&on_edges(&flips)).mean,
             "flip_all": flip.mean,
         }));
     }

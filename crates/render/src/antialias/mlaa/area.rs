@@ -27,8 +27,8 @@
 
 use std::sync::OnceLock;
 
-/// The largest search distance, in pixels, the texture covers.
-pub const MAX_DISTANCE: u32 = 64;
+/// The largest search distance, in pixels, the texture covers: the study model's range.
+pub const MAX_DISTANCE: u32 = *study::method::antialias::MLAA_SEARCH_DISTANCE_RANGE.end();
 /// Distances per side of a pattern's sub-texture: `0..=MAX_DISTANCE`.
 pub const SIDE: usize = MAX_DISTANCE as usize + 1;
 /// Texels per row (and rows) of the texture.

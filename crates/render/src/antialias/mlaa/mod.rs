@@ -25,10 +25,11 @@ pub mod edges;
 pub mod host;
 pub mod weights;
 
-/// The thesis's good trade for the search distance, in pixels ("between 8 and 12").
-pub const DEFAULT_SEARCH_DISTANCE: u32 = 12;
-/// The luminance step that makes an edge, in display units.
-pub const DEFAULT_THRESHOLD: f32 = 0.1;
+/// The thesis's good trade for the search distance, in pixels ("between 8 and 12"): the
+/// study model's default.
+pub const DEFAULT_SEARCH_DISTANCE: u32 = study::method::antialias::DEFAULT_MLAA_SEARCH_DISTANCE;
+/// The luminance step that makes an edge, in display units: the study model's default.
+pub const DEFAULT_THRESHOLD: f32 = study::method::antialias::DEFAULT_MLAA_THRESHOLD as f32;
 
 /// MLAA's settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
