@@ -81,7 +81,7 @@ impl MarkedGroup {
 /// The tracer row at samples-per-pixel level `a` (1-based) of the sweep's preset.
 fn level_row(sweep: &CostSweep, rows: &[CostRow], a: u8) -> Option<CostRow> {
     let spp = sweep.levels.get(usize::from(a).checked_sub(1)?)?.1;
-    rows.iter().find(|r| r.method == Method::Tracer && r.value == spp).cloned()
+    rows.iter().find(|r| r.method == Method::Tracer && r.knob == "spp" && r.value == spp).cloned()
 }
 
 /// The paired groups of every experiment of `report.json` (a report folder or the file),
@@ -193,6 +193,17 @@ pub fn markdown(sweep: &CostSweep, groups: &[MarkedGroup], figures: &[String], m
              spans the whole shutter, so the sphere's moving contact shadow is drawn sharp where the tracer smears it. \
              `blurlab bench analytic-accuracy` measures that error in the shadow region per speed (`analysis/analytic/contact-shadow.csv`).\n",
         );
+    }
+    if let Some(input) = rows.iter().find(|r| r.knob.starts_with("mlaa")).map(|r| r.input_spp) {
+        md.push_str(&format!(
+            "\nThe `mlaa_*` rows are morphological antialiasing (`--mlaa`): the tracer at {input} spp with every camera sample \
+             through its pixel's centre (one visibility sample per pixel: edges alias as a rasterizer's do, the shading is that of \
+             {input} samples), filtered by MLAA on its display values. `mlaa_search_distance` runs at the default threshold \
+             (0.1), its value 0 being the unfiltered frame; `mlaa_threshold_percent` runs at the default search distance (12 \
+             pixels), its value in hundredths of display luminance. They share their input frame's seeds, so differences \
+             between them are the filter's; their time includes the render. Set it beside the jittered tracer's row at {input} \
+             spp, which antialiases by supersampling.\n"
+        ));
     }
     if !groups.is_empty() {
         let gold = gold(sweep, &rows);
@@ -371,7 +382,7 @@ pub fn write_cost_report(sweep: &CostSweep, groups: &[MarkedGroup], dir: &Path) 
     write("cost.json", serde_json::to_string_pretty(sweep).unwrap_or_default().as_bytes())?;
     write("cost.csv", sweep.csv().as_bytes())?;
     let rows = sweep.rows();
-    let tracer_first = rows.iter().find(|r| r.method == Method::Tracer);
+    let tracer_first = rows.iter().find(|r| r.method == Method::Tracer && r.knob == "spp");
     let mut figures = Vec::new();
     for (stem, y_desc, which) in [("cost-rmse", "display RMSE (median)", 0), ("cost-flip", "mean FLIP (median)", 1)] {
         let error = |r: &CostRow| if which == 0 { r.rmse.median } else { r.flip.median };
@@ -487,5 +498,31 @@ mod tests {
         std::fs::write(dir.path().join("bad.json"), "{\"format\": \"x\"}").unwrap();
         let e = groups_from_report(&dir.path().join("bad.json"), &s).unwrap_err().to_string();
         assert!(e.contains("field `format`"), "{e}");
+    }
+
+    #[test]
+    fn mlaa_rows_are_their_own_curve_and_leave_the_tracer_fit_alone() {
+        let mut s = sweep();
+        let exponent = s.tracer_exponent().unwrap();
+        let tracer_point = s.points[0].clone();
+        for (d, rmse) in [(0u32, 0.5), (12, 0.4)] {
+            s.points.push(CostPoint {
+                knob: "mlaa_search_distance".into(),
+                value: d,
+                input_spp: 16,
+                wall_seconds: 0.17,
+                rmse,
+                ..tracer_point.clone()
+            });
+        }
+        assert_eq!(s.tracer_exponent().unwrap().to_bits(), exponent.to_bits());
+        let rows = s.rows();
+        let curves = curves(&rows, |r| r.rmse.median);
+        let labels: Vec<&str> = curves.iter().map(|c| c.0.as_str()).collect();
+        assert_eq!(labels, ["tracer at pixel centres + MLAA (search distance)", "tracer (spp)"]);
+        assert_eq!(curves[0].1, vec![(0.17, 0.5), (0.17, 0.4)]);
+        let md = markdown(&s, &[], &[], &[]);
+        assert!(md.contains("the tracer at 16 spp with every camera sample through its pixel's centre"), "{md}");
+        assert!(md.contains("| tracer mlaa_search_distance=12 |"), "{md}");
     }
 }

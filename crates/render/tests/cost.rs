@@ -42,6 +42,7 @@ fn request(out: PathBuf, methods: Vec<Method>, max_spp: u32, repetitions: u32, r
         repetitions,
         out,
         max_new_points: None,
+        mlaa: false,
     }
 }
 
@@ -228,4 +229,56 @@ fn bad_requests_are_clear_errors() {
         ..base()
     };
     check(filters, "the reference is not converged enough: its standard error");
+    check(CostRequest { methods: vec![Method::Accum], mlaa: true, ..base() }, "add tracer to --methods");
+}
+
+/// MLAA's curve (`--mlaa`) on the checker's still frame at the quick preset's 160 x 90
+/// pixels: every setting is measured on the same centre-sampled input, the filter lowers
+/// its error, and the settings that coincide give the same bytes.
+#[test]
+fn mlaa_sweeps_one_centre_sampled_input_and_lowers_its_error() {
+    use study::method::antialias::{
+        SWEEP_KNOB_SEARCH_DISTANCE, SWEEP_KNOB_THRESHOLD, SWEEP_MLAA_SEARCH_DISTANCES, SWEEP_MLAA_THRESHOLDS_PERCENT,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml");
+    let text = std::fs::read_to_string(shipped).unwrap()
+        + "\n[presets.small]\nwidth = 160\nheight = 90\nframes = 1\nfirst_frame = 17\nsamples_per_pixel = [1, 4, 8, 12, 16]\n";
+    let path = dir.path().join("small.toml");
+    std::fs::write(&path, &text).unwrap();
+    let design = Design::load(&path).unwrap();
+    let id = design.ids(study::design::Views::Mono)[0];
+    let probe = design.frame_scene_with(&design.preset("small").unwrap(), &id, 0).unwrap();
+    let env = EnvironmentMap::from_lighting(&probe.lighting).unwrap();
+    let req = CostRequest {
+        preset: "small".into(),
+        cell: "M2-S1-T1".into(),
+        mlaa: true,
+        ..request(dir.path().join("out"), vec![Method::Tracer], 16, 1, 2048)
+    };
+    let s = sweep(&design, &env, &req);
+    let rows = s.rows();
+    let along = |knob: &str| -> Vec<_> { rows.iter().filter(|r| r.knob == knob).collect() };
+    let (distances, thresholds) = (along(SWEEP_KNOB_SEARCH_DISTANCE), along(SWEEP_KNOB_THRESHOLD));
+    assert_eq!(distances.iter().map(|r| r.value).collect::<Vec<_>>(), SWEEP_MLAA_SEARCH_DISTANCES);
+    assert_eq!(thresholds.iter().map(|r| r.value).collect::<Vec<_>>(), SWEEP_MLAA_THRESHOLDS_PERCENT);
+    // The top level's samples, through the pixel centres, whatever the filter.
+    assert!(distances.iter().chain(&thresholds).all(|r| r.input_spp == 16 && r.work_units == 16.0 * 160.0 * 90.0));
+    let unfiltered = distances[0].rmse.median;
+    let mlaa = distances.iter().find(|r| r.value == 12).unwrap();
+    eprintln!(
+        "centre-sampled 16 spp: RMSE {unfiltered:.5}, + MLAA {:.5}; jittered 16 spp {:.5}",
+        mlaa.rmse.median,
+        rows.iter().find(|r| r.knob == "spp" && r.value == 16).unwrap().rmse.median
+    );
+    assert!(mlaa.rmse.median < unfiltered, "{} vs {unfiltered}", mlaa.rmse.median);
+    // Threshold 0.1 at distance 12 is the default setting of the other curve: one input, one
+    // filter, the same error to the last bit.
+    let default_threshold = thresholds.iter().find(|r| r.value == 10).unwrap();
+    assert_eq!(default_threshold.rmse.median.to_bits(), mlaa.rmse.median.to_bits());
+    // A higher threshold finds fewer edges: at 0.4 the frame is closer to the unfiltered one.
+    let high = thresholds.last().unwrap().rmse.median;
+    assert!((high - unfiltered).abs() < (mlaa.rmse.median - unfiltered).abs(), "{high}");
+    assert_eq!(s.rows().iter().filter(|r| r.knob == "spp").count(), 6);
+    assert!(dir.path().join("out/maps/tracer-mlaa_search_distance12-in16-f0000-r0-flip.png").exists());
 }

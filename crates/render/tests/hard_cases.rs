@@ -156,6 +156,22 @@ const CASES: &[Case] = &[
         frame: 3,
     },
     Case {
+        name: "MLAA on every method, longest search, smallest threshold, stereo",
+        edits: &[
+            ("method.antialias", "\"mlaa\""),
+            ("method.mlaa_threshold", "0.0001"),
+            ("method.mlaa_search_distance", "64"),
+        ],
+        id: "M2-S3-T1-A5-stereo",
+        frame: 3,
+    },
+    Case {
+        name: "MLAA on depth edges, grazing camera",
+        edits: &[("method.antialias", "\"mlaa\""), ("method.mlaa_edges", "\"depth\""), ("camera.height", "0.01")],
+        id: "M2-S2-T3-A5",
+        frame: 3,
+    },
+    Case {
         name: "accumulation buffer, 2 instants",
         edits: &[("method.kind", "\"accum\""), ("method.instants", "2")],
         id: "M3-S3-T5-A5",

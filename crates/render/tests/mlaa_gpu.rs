@@ -88,6 +88,49 @@ fn every_pass_agrees_with_its_cpu_twin() {
     }
 }
 
+#[test]
+fn depth_edges_agree_with_their_cpu_twin() {
+    use render::antialias::mlaa::edges::detect_depth_edges;
+    let Some(gpu) = mlaa("depth_edges_agree_with_their_cpu_twin") else { return };
+    let (w, h) = (83, 47);
+    // A disc at 3 m over a floor whose inverse depth falls towards a horizon (sky: 0), a
+    // NaN and an infinity; the colours a checker, so luminance would find other edges.
+    let depth: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = (f64::from(i % w) + 0.5, f64::from(i / w) + 0.5);
+            let d = if (x - 40.0).powi(2) + (y - 25.0).powi(2) < 15.0f64.powi(2) {
+                1.0 / 3.0
+            } else if y > 12.0 {
+                0.004 * (y - 12.0)
+            } else {
+                0.0
+            };
+            match i {
+                300 => f32::NAN,
+                2000 => f32::INFINITY,
+                _ => d as f32,
+            }
+        })
+        .collect();
+    let img: Vec<[f32; 3]> =
+        (0..w * h).map(|i| if (i % w / 4 + i / w / 4) % 2 == 0 { [0.9; 3] } else { [0.1; 3] }).collect();
+    let params = MlaaParams { threshold: 0.02, search_distance: 12 };
+    let edges = detect_depth_edges(w, h, &depth, params.threshold);
+    let weights = blending_weights(&edges, w, h, params.search_distance);
+    let color = blend(w, h, &img, &weights);
+    assert!(edges.iter().filter(|e| e[0] + e[1] > 0.0).count() > 50);
+    let run = gpu.run_with_depth(w, h, &img, Some(&depth), &params).unwrap();
+    assert_eq!(run.edges, edges);
+    assert_eq!(run.weights, weights);
+    for (a, b) in run.color.iter().zip(&color) {
+        assert!((0..3).all(|c| (a[c] - b[c]).abs() <= 1e-6), "{a:?} against {b:?}");
+    }
+    // Not the luminance's edges.
+    assert_ne!(edges, detect_edges(w, h, &img, params.threshold));
+    let short = gpu.run_with_depth(w, h, &img, Some(&depth[1..]), &params).unwrap_err();
+    assert!(matches!(short, render::antialias::mlaa::MlaaError::Size { .. }), "{short}");
+}
+
 mod common;
 
 #[test]
@@ -108,16 +151,43 @@ fn a_gpu_renderer_antialiases_with_the_kernels_as_the_cpu_twin_does() {
     let renderer = Renderer::open(DeviceChoice::Gpu, &env).unwrap();
     let spec = study::method::MethodSpec::default();
     let mut by_twin = renderer.render(&spec, &s).unwrap().image;
-    s.antialias = Some(study::scene::Antialias::Mlaa { threshold: 0.1, search_distance: 12 });
+    s.antialias = Some(study::scene::Antialias::Mlaa {
+        threshold: 0.1,
+        search_distance: 12,
+        edges: study::scene::MlaaEdges::Luminance,
+    });
     let by_kernels = renderer.render(&spec, &s).unwrap().image;
     render::antialias::frame::antialias_frame(&mut by_twin, &s, None).unwrap();
-    let worst = by_kernels
-        .pixels
-        .iter()
-        .zip(&by_twin.pixels)
-        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / b[c].abs().max(1e-3)))
-        .fold(0.0f32, f32::max);
+    let worst_relative = |a: &render::io::LinearImage, b: &render::io::LinearImage| {
+        a.pixels
+            .iter()
+            .zip(&b.pixels)
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / b[c].abs().max(1e-3)))
+            .fold(0.0f32, f32::max)
+    };
+    let worst = worst_relative(&by_kernels, &by_twin);
     assert!(worst < 1e-4, "largest relative difference {worst}");
+    // With depth edges: the kernels with the depth buffer uploaded, the twin on the CPU.
+    let mut depth_scene = s.clone();
+    depth_scene.antialias = Some(study::scene::Antialias::Mlaa {
+        threshold: 0.02,
+        search_distance: 12,
+        edges: study::scene::MlaaEdges::Depth,
+    });
+    let by_kernels_depth = renderer.render(&spec, &depth_scene).unwrap().image;
+    let mut by_twin_depth = renderer
+        .render(&spec, &{
+            let mut plain = s.clone();
+            plain.antialias = None;
+            plain
+        })
+        .unwrap()
+        .image;
+    let unfiltered = by_twin_depth.clone();
+    render::antialias::frame::antialias_frame(&mut by_twin_depth, &depth_scene, None).unwrap();
+    assert_ne!(by_twin_depth, unfiltered, "depth edges changed nothing");
+    let worst_depth = worst_relative(&by_kernels_depth, &by_twin_depth);
+    assert!(worst_depth < 1e-4, "depth edges: largest relative difference {worst_depth}");
     assert_ne!(
         by_kernels,
         renderer

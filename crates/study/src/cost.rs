@@ -228,7 +228,7 @@ impl CostSweep {
         let pts: Vec<(f64, f64)> = self
             .rows()
             .iter()
-            .filter(|r| r.method == Method::Tracer && r.rmse.median > 0.0)
+            .filter(|r| r.method == Method::Tracer && r.knob == "spp" && r.rmse.median > 0.0)
             .map(|r| (f64::from(r.value).ln(), r.rmse.median.ln()))
             .collect();
         if pts.len() < 2 {

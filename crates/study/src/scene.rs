@@ -364,16 +364,39 @@ fn default_pixel_jitter() -> bool {
     true
 }
 
+/// What morphological antialiasing finds its edges in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MlaaEdges {
+    /// Steps of the display values' luminance (what the frame shows).
+    #[default]
+    Luminance,
+    /// Steps of inverse view depth at the pixels' centres at the shutter's centre (the scene's
+    /// geometry, as a depth buffer holds it): the thesis's first choice.
+    Depth,
+}
+
+impl MlaaEdges {
+    /// Whether this is the default, luminance.
+    pub fn is_luminance(&self) -> bool {
+        *self == MlaaEdges::Luminance
+    }
+}
+
 /// A filter applied to a frame's display values after it is rendered, one eye at a time.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase", tag = "kind")]
 pub enum Antialias {
     /// Morphological antialiasing (the thesis's Part II).
     Mlaa {
-        /// Smallest display-luminance step that is an edge, in (0, 1].
+        /// Smallest step that is an edge, in (0, 1]: of display luminance, or of inverse
+        /// view depth in 1/m with depth edges.
         threshold: f64,
         /// Longest search towards each end of a line, pixels (1-64).
         search_distance: u32,
+        /// What the edges are found in.
+        #[serde(default, skip_serializing_if = "MlaaEdges::is_luminance")]
+        edges: MlaaEdges,
     },
 }
 

@@ -379,6 +379,12 @@ fn method_settings_must_belong_to_their_method_and_lie_in_range() {
     assert!(msg.contains("key `method.mlaa_search_distance`: must lie in 1..=64, found 65"), "{msg}");
     let (_, msg, _) = load_err(&format!("{}\n[method]\nantialias = \"fxaa\"\n", shipped_text()));
     assert!(msg.contains("unknown variant `fxaa`, expected `none` or `mlaa`"), "{msg}");
+    let bad_edges = format!("{}\n[method]\nantialias = \"mlaa\"\nmlaa_edges = \"normals\"\n", shipped_text());
+    let (_, msg, _) = load_err(&bad_edges);
+    assert!(msg.contains("unknown variant `normals`, expected `luminance` or `depth`"), "{msg}");
+    assert!(msg.contains(&format!(":{}", line_of(&bad_edges, "mlaa_edges"))), "{msg}");
+    let (_, msg, _) = load_err(&format!("{}\n[method]\nmlaa_edges = \"depth\"\n", shipped_text()));
+    assert!(msg.contains("key `method.mlaa_edges`: applies only with antialias = \"mlaa\""), "{msg}");
 }
 
 #[test]

@@ -51,6 +51,11 @@ pub struct Args {
     /// Measure at most this many new points, then write the report so far and stop.
     #[arg(long)]
     pub max_new_points: Option<usize>,
+    /// Also sweep morphological antialiasing: the tracer with every sample through the pixel
+    /// centre at the preset's highest sampling level, filtered by MLAA along its search
+    /// distance (0 = unfiltered) and its threshold (needs tracer among --methods).
+    #[arg(long)]
+    pub mlaa: bool,
     /// No progress bar (lines on stderr instead).
     #[arg(long)]
     pub quiet: bool,
@@ -84,6 +89,7 @@ pub fn cost_report(args: &Args) -> anyhow::Result<PathBuf> {
         repetitions: args.repetitions,
         out: args.out.clone(),
         max_new_points: args.max_new_points,
+        mlaa: args.mlaa,
     };
     let bar = if args.quiet {
         indicatif::ProgressBar::hidden()
@@ -135,6 +141,7 @@ pub fn demo_args(design: &Path, cell: &str, report: Option<PathBuf>, out: PathBu
         report,
         out,
         max_new_points: None,
+        mlaa: false,
         quiet: true,
     }
 }

@@ -33,6 +33,9 @@ use study::Method;
 use study::cost::{COST_FORMAT, CostPoint, CostReference, CostSweep, point_key};
 use study::design::{Design, Preset};
 use study::ids::{Cell, Factor, StimulusId, View};
+use study::method::antialias::{
+    DEFAULT_MLAA_SEARCH_DISTANCE, SWEEP_KNOB_SEARCH_DISTANCE, SWEEP_KNOB_THRESHOLD, mlaa_sweep,
+};
 use study::method::{MethodSpec, SweepSetting as Setting};
 use study::scene::FrameScene;
 use study::seed::mix;
@@ -115,6 +118,8 @@ pub struct CostRequest {
     pub out: PathBuf,
     /// Stop after measuring this many new points (the sweep stays resumable); `None`: all.
     pub max_new_points: Option<usize>,
+    /// Also sweep MLAA on the centre-sampled tracer ([`study::method::antialias::mlaa_sweep`]).
+    pub mlaa: bool,
 }
 
 /// The identity of a sweep folder: what every point in it was measured against.
@@ -153,6 +158,11 @@ pub fn parse_cell(design: &Design, text: &str) -> Result<(Cell, View), CostError
     Ok((cell, view))
 }
 
+/// Whether `setting` is a point of MLAA's sweep.
+fn is_mlaa(setting: &Setting) -> bool {
+    [SWEEP_KNOB_SEARCH_DISTANCE, SWEEP_KNOB_THRESHOLD].contains(&setting.knob)
+}
+
 /// The scene with seeds mixed apart by `salt` and `spp` samples.
 fn reseeded(scene: &FrameScene, salt: &[u64], spp: u32) -> FrameScene {
     let mut s = scene.clone();
@@ -171,7 +181,8 @@ fn write(path: &Path, bytes: &[u8]) -> Result<(), CostError> {
     study::fsio::write_atomic(path, bytes).map_err(|e| file_error(path, e))
 }
 
-fn png_rgb8(width: u32, height: u32, bytes: &[u8]) -> Vec<u8> {
+/// An 8-bit RGB image as PNG bytes.
+pub(crate) fn png_rgb8(width: u32, height: u32, bytes: &[u8]) -> Vec<u8> {
     use image::ImageEncoder;
     let mut out = Vec::new();
     image::codecs::png::PngEncoder::new(&mut out)
@@ -262,8 +273,15 @@ impl Context<'_, '_> {
             return Ok(None);
         }
         let base = self.base_scene(frame)?;
-        let salt = [0xC057, setting.spec.kind() as u64, u64::from(setting.value), u64::from(repetition)];
-        let scene = reseeded(&base, &salt, setting.input_spp);
+        // MLAA's settings share their input's seeds, so that its curve shows the filter's
+        // effect on one frame, not the differences between frames.
+        let salt = if is_mlaa(setting) {
+            [0xC057, setting.spec.kind() as u64, 0x4D4C_4141, u64::from(repetition)]
+        } else {
+            [0xC057, setting.spec.kind() as u64, u64::from(setting.value), u64::from(repetition)]
+        };
+        let mut scene = reseeded(&base, &salt, setting.input_spp);
+        scene.antialias = setting.antialias;
         let started = Instant::now();
         let frame_out = self.renderer.render(&setting.spec, &scene)?;
         let wall_seconds = started.elapsed().as_secs_f64();
@@ -428,14 +446,25 @@ pub fn run_cost(
         id,
         out: request.out.clone(),
     };
-    let settings: Vec<(Method, Vec<Setting>)> =
+    if request.mlaa && !methods.contains(&Method::Tracer) {
+        return bad("--mlaa filters the tracer's frames: add tracer to --methods".into());
+    }
+    let mut settings: Vec<(Method, Vec<Setting>)> =
         methods.iter().map(|&m| (m, m.sweep(&preset, request.max_spp))).collect();
-    // Every method's finest setting first (repetition 0 of the first frame): the reference
-    // is checked against them before the rest is swept.
+    if request.mlaa {
+        for (m, s) in &mut settings {
+            if *m == Method::Tracer {
+                s.extend(mlaa_sweep(&preset, request.max_spp));
+            }
+        }
+    }
+    // Every method's finest setting (its last without MLAA) first, repetition 0 of the first
+    // frame: the reference is checked against them before the rest is swept.
+    let finest = |s: &[Setting]| s.iter().rposition(|x| !is_mlaa(x));
     let mut order: Vec<(u32, Setting, u32, bool)> = Vec::new();
     for (_, s) in &settings {
-        if let Some(finest) = s.last() {
-            order.push((frames[0], finest.clone(), 0, true));
+        if let Some(i) = finest(s) {
+            order.push((frames[0], s[i].clone(), 0, true));
         }
     }
     let first_check = order.len();
@@ -443,7 +472,10 @@ pub fn run_cost(
         for (_, s) in &settings {
             for (i, setting) in s.iter().enumerate() {
                 for rep in 0..request.repetitions {
-                    let map = frame == frames[0] && rep == 0 && (i == 0 || i + 1 == s.len());
+                    // Maps of the coarsest and finest settings, and of MLAA at its defaults.
+                    let mlaa_default =
+                        setting.knob == SWEEP_KNOB_SEARCH_DISTANCE && setting.value == DEFAULT_MLAA_SEARCH_DISTANCE;
+                    let map = frame == frames[0] && rep == 0 && (i == 0 || Some(i) == finest(s) || mlaa_default);
                     let item = (frame, setting.clone(), rep, map);
                     if !order.iter().any(|o| o.0 == item.0 && o.1 == item.1 && o.2 == item.2) {
                         order.push(item);
@@ -502,7 +534,9 @@ pub fn run_cost(
         settings
             .iter()
             .flat_map(|(_, s)| s.iter())
-            .position(|s| s.spec.kind() == p.method && s.value == p.value && s.input_spp == p.input_spp)
+            .position(|s| {
+                s.spec.kind() == p.method && s.knob == p.knob && s.value == p.value && s.input_spp == p.input_spp
+            })
             .unwrap_or(usize::MAX)
     };
     sweep.points.sort_by_key(|p| (position(p), p.frame, p.repetition));

@@ -105,6 +105,7 @@ impl MethodSettings for AccumSettings {
                 knob: "instants",
                 value: k,
                 input_spp: per,
+                antialias: None,
             })
             .collect()
     }

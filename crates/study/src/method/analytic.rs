@@ -120,6 +120,7 @@ impl MethodSettings for AnalyticSettings {
             knob: "intervals",
             value: intervals,
             input_spp: top_level,
+            antialias: None,
         });
         let supersampling = SWEEP_SUPERSAMPLING.iter().map(move |&n| SweepSetting {
             spec: super::MethodSpec::Analytic(AnalyticSettings {
@@ -130,6 +131,7 @@ impl MethodSettings for AnalyticSettings {
             knob: "supersampling",
             value: n,
             input_spp: top_level,
+            antialias: None,
         });
         intervals.chain(supersampling).collect()
     }

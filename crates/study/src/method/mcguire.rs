@@ -24,7 +24,13 @@ pub(crate) fn filter_sweep(
     super::sweep_levels(preset, max_spp)
         .into_iter()
         .flat_map(|level| SWEEP_TAPS.iter().map(move |&taps| (level, taps)))
-        .map(|(level, taps)| SweepSetting { spec: spec(taps), knob: "taps", value: taps, input_spp: level })
+        .map(|(level, taps)| SweepSetting {
+            spec: spec(taps),
+            knob: "taps",
+            value: taps,
+            input_spp: level,
+            antialias: None,
+        })
         .collect()
 }
 

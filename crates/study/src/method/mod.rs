@@ -135,6 +135,8 @@ pub struct SweepSetting {
     pub value: u32,
     /// Samples per pixel of the frame scene handed to the method.
     pub input_spp: u32,
+    /// Antialiasing of the rendered frame (MLAA's sweep, [`antialias::mlaa_sweep`]).
+    pub antialias: Option<crate::scene::Antialias>,
 }
 
 /// Which of a sweep's input levels (samples per pixel handed to the method) the cost report

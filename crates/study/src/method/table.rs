@@ -23,9 +23,13 @@ pub struct MethodTable {
     /// Any method: antialiasing of the display frame (`none` or `mlaa`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub antialias: Option<super::antialias::AntialiasKind>,
-    /// Any method with `antialias = "mlaa"`: the luminance step that makes an edge.
+    /// Any method with `antialias = "mlaa"`: the step that makes an edge (of display
+    /// luminance, or of inverse view depth in 1/m with `mlaa_edges = "depth"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mlaa_threshold: Option<f64>,
+    /// Any method with `antialias = "mlaa"`: what edges are found in (`luminance` or `depth`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mlaa_edges: Option<crate::scene::MlaaEdges>,
     /// Any method with `antialias = "mlaa"`: the search distance in pixels.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mlaa_search_distance: Option<u32>,
@@ -88,6 +92,7 @@ impl MethodTable {
         "pixel_jitter",
         "antialias",
         "mlaa_threshold",
+        "mlaa_edges",
         "mlaa_search_distance",
         "instants",
         "jitter",
@@ -114,6 +119,7 @@ impl MethodTable {
             self.pixel_jitter.is_some(),
             self.antialias.is_some(),
             self.mlaa_threshold.is_some(),
+            self.mlaa_edges.is_some(),
             self.mlaa_search_distance.is_some(),
             self.instants.is_some(),
             self.jitter.is_some(),

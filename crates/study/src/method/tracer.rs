@@ -54,11 +54,23 @@ impl MethodSettings for TracerSettings {
                 knob: "spp",
                 value: s,
                 input_spp: s,
+                antialias: None,
             })
             .collect()
     }
 
-    fn curve_label(_: &str, _: u32) -> String {
-        "tracer (spp)".to_owned()
+    fn curve_label(knob: &str, _: u32) -> String {
+        match knob {
+            super::antialias::SWEEP_KNOB_SEARCH_DISTANCE => {
+                "tracer at pixel centres + MLAA (search distance)".to_owned()
+            }
+            super::antialias::SWEEP_KNOB_THRESHOLD => "tracer at pixel centres + MLAA (threshold)".to_owned(),
+            _ => "tracer (spp)".to_owned(),
+        }
+    }
+
+    fn work_units(knob: &str, value: u32, input_spp: u32) -> u64 {
+        // MLAA's knobs: the samples traced, whatever the filter's setting.
+        if knob == "spp" { u64::from(value) } else { u64::from(input_spp) }
     }
 }

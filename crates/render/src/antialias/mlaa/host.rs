@@ -4,7 +4,8 @@
 //!
 //! Memory per image of `n` pixels: the input and output colours (16 bytes a pixel each,
 //! RGBA f32 for alignment), the edges texture (RGBA8, 4 bytes a texel of the padded image)
-//! and the weights (16 bytes a pixel): 52 bytes a pixel, 3.25x an RGBA f32 back buffer or
+//! and the weights (16 bytes a pixel): 52 bytes a pixel (56 with depth edges' f32 inverse
+//! depth), 3.25x an RGBA f32 back buffer or
 //! 13x an RGBA8 one, plus the area texture's 541 kB once. The thesis's 1.5x counts 8-bit
 //! render targets; blurlab keeps f32 so the kernels and their twins agree to rounding.
 
@@ -52,6 +53,7 @@ pub struct MlaaRun {
 pub struct GpuMlaa {
     ctx: GpuContext,
     edges: wgpu::ComputePipeline,
+    depth_edges: wgpu::ComputePipeline,
     weights: wgpu::ComputePipeline,
     blend: wgpu::ComputePipeline,
     sampler: wgpu::Sampler,
@@ -93,6 +95,7 @@ impl GpuMlaa {
             })
         };
         let edges = pipeline(&modules[0], "detect_edges");
+        let depth_edges = pipeline(&modules[0], "detect_depth_edges");
         let weights = pipeline(&modules[1], "blending_weights");
         let blend = pipeline(&modules[2], "blend");
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -111,7 +114,7 @@ impl GpuMlaa {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Validation { what: "MLAA pipelines".into(), message: e.to_string() });
         }
-        Ok(GpuMlaa { ctx, edges, weights, blend, sampler, area })
+        Ok(GpuMlaa { ctx, edges, depth_edges, weights, blend, sampler, area })
     }
 
     /// The adapter and device.
@@ -121,11 +124,25 @@ impl GpuMlaa {
 
     /// MLAA on one eye's display values (`width x height`, row-major).
     pub fn run(&self, width: u32, height: u32, color: &[[f32; 3]], params: &MlaaParams) -> Result<MlaaRun, MlaaError> {
+        self.run_with_depth(width, height, color, None, params)
+    }
+
+    /// MLAA on one eye's display values, its edges found in `inverse_depth` (1/m, one per
+    /// pixel) where given, else in the luminance.
+    pub fn run_with_depth(
+        &self,
+        width: u32,
+        height: u32,
+        color: &[[f32; 3]],
+        inverse_depth: Option<&[f32]>,
+        params: &MlaaParams,
+    ) -> Result<MlaaRun, MlaaError> {
         params.check()?;
-        if color.len() != width as usize * height as usize || width == 0 || height == 0 {
+        let n = width as usize * height as usize;
+        if color.len() != n || inverse_depth.is_some_and(|d| d.len() != n) || width == 0 || height == 0 {
             return Err(MlaaError::Size { width, height, got: color.len() });
         }
-        self.run_checked(width, height, color, params).map_err(MlaaError::Gpu)
+        self.run_checked(width, height, color, inverse_depth, params).map_err(MlaaError::Gpu)
     }
 
     fn run_checked(
@@ -133,6 +150,7 @@ impl GpuMlaa {
         width: u32,
         height: u32,
         color: &[[f32; 3]],
+        inverse_depth: Option<&[f32]>,
         params: &MlaaParams,
     ) -> Result<MlaaRun, GpuError> {
         let device = &self.ctx.device;
@@ -186,10 +204,39 @@ impl GpuMlaa {
                 entries: &entries,
             })
         };
-        let edges_group = bind(
-            &self.edges,
-            &[uniform.as_entire_binding(), input.as_entire_binding(), wgpu::BindingResource::TextureView(&view)],
-        );
+        let depth = inverse_depth.map(|d| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("mlaa inverse depth"),
+                contents: bytemuck::cast_slice(d),
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        });
+        let (edges_pipeline, edges_group) = match &depth {
+            None => (
+                &self.edges,
+                bind(
+                    &self.edges,
+                    &[
+                        uniform.as_entire_binding(),
+                        input.as_entire_binding(),
+                        wgpu::BindingResource::TextureView(&view),
+                    ],
+                ),
+            ),
+            // The depth entry point reads bindings 0, 2 and 3, not the colour.
+            Some(depth) => (
+                &self.depth_edges,
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: None,
+                    layout: &self.depth_edges.get_bind_group_layout(0),
+                    entries: &[
+                        wgpu::BindGroupEntry { binding: 0, resource: uniform.as_entire_binding() },
+                        wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&view) },
+                        wgpu::BindGroupEntry { binding: 3, resource: depth.as_entire_binding() },
+                    ],
+                }),
+            ),
+        };
         let weights_group = bind(
             &self.weights,
             &[
@@ -212,7 +259,7 @@ impl GpuMlaa {
         let groups = |w: u32, h: u32| (w.div_ceil(WORKGROUP), h.div_ceil(WORKGROUP));
         let timing = self.ctx.timer().commands(|encoder| {
             let passes: [(&wgpu::ComputePipeline, &wgpu::BindGroup, (u32, u32)); 3] = [
-                (&self.edges, &edges_group, groups(pw, ph)),
+                (edges_pipeline, &edges_group, groups(pw, ph)),
                 (&self.weights, &weights_group, groups(width, height)),
                 (&self.blend, &blend_group, groups(width, height)),
             ];

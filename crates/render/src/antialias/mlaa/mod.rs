@@ -3,7 +3,8 @@
 //! image, each a function of the same name as its WGSL pass:
 //!
 //! 1. [`edges`]: edgels on the west and north boundaries of each pixel where the display
-//!    luminance jumps by at least the threshold;
+//!    luminance (or, given a depth buffer, the inverse view depth) jumps by at least the
+//!    threshold;
 //! 2. [`weights`]: for each edgel, the distances to its line's ends (searched two edgels
 //!    per bilinear fetch), the crossing edges there (one fetch at a quarter-pixel offset)
 //!    and the areas the revectorised line cuts, from the [`area`] texture;
@@ -92,6 +93,25 @@ pub fn mlaa_cpu(width: u32, height: u32, color: &[[f32; 3]], params: &MlaaParams
         return Err(MlaaError::Size { width, height, got: color.len() });
     }
     let e = edges::detect_edges(width, height, color, params.threshold);
+    let w = weights::blending_weights(&e, width, height, params.search_distance);
+    Ok(blend::blend(width, height, color, &w))
+}
+
+/// MLAA with edges found in depth ([`edges::detect_depth_edges`]): `inverse_depth` (1/m,
+/// row-major, one per pixel) at the threshold, on the CPU.
+pub fn mlaa_cpu_depth(
+    width: u32,
+    height: u32,
+    color: &[[f32; 3]],
+    inverse_depth: &[f32],
+    params: &MlaaParams,
+) -> Result<Vec<[f32; 3]>, MlaaError> {
+    params.check()?;
+    let n = width as usize * height as usize;
+    if color.len() != n || inverse_depth.len() != n {
+        return Err(MlaaError::Size { width, height, got: color.len().min(inverse_depth.len()) });
+    }
+    let e = edges::detect_depth_edges(width, height, inverse_depth, params.threshold);
     let w = weights::blending_weights(&e, width, height, params.search_distance);
     Ok(blend::blend(width, height, color, &w))
 }
