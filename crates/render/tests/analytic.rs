@@ -788,3 +788,36 @@ fn the_contact_shadows_error_is_the_methods_measured_limit_and_grows_with_speed(
     assert!(fast.analytic_darkest < 0.5 * fast.tracer_darkest, "{fast:?}");
     assert!(fast.mean_abs_error > 1.5 * slow.mean_abs_error, "{slow:?} {fast:?}");
 }
+
+/// At one point per pixel, a sphere pixel is shaded where its ray meets the true sphere, so
+/// no pixel on the silhouette is black. (The radial projection of the covering triangle's
+/// point, which the shading used before, lands on the back hemisphere at the limb, and the
+/// guard against shading from inside returned black: two such pixels in this frame.)
+#[test]
+fn the_silhouette_is_shaded_where_the_pixel_ray_meets_the_sphere() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/antialiasing.toml");
+    let design = study::design::Design::load(&path).unwrap();
+    let id: study::ids::StimulusId = "M2-S1-T1-A2-analytic".parse().unwrap();
+    let scene = design.frame_scene_with(&design.preset("full").unwrap(), &id, 60).unwrap();
+    let study::method::MethodSpec::Analytic(mut settings) = design.method_of(&id).unwrap() else {
+        panic!("the first level is analytic")
+    };
+    settings.lighting_samples = Some(8);
+    let env = render::env::EnvironmentMap::from_lighting(&scene.lighting).unwrap();
+    let image =
+        render::Renderer::cpu(&env).render(&study::method::MethodSpec::Analytic(settings), &scene).unwrap().image;
+    let camera = &scene.views[0].camera;
+    let centre = scene.sphere.centre_at(scene.shutter.centre());
+    let mut on_sphere = 0;
+    for y in 0..image.height {
+        for x in 0..image.width {
+            let d = camera.ray_direction(DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5));
+            let oc = centre - camera.position;
+            if (oc - d * oc.dot(d)).length() < scene.sphere.radius {
+                on_sphere += 1;
+                assert_ne!(image.get(x, y), [0.0; 3], "black sphere pixel ({x}, {y})");
+            }
+        }
+    }
+    assert!(on_sphere > 1500, "{on_sphere}");
+}

@@ -13,8 +13,8 @@ use crate::methods::analytic::interval::ORACLE_H;
 use crate::numeric::solve_quadratic_f32;
 use crate::shading::gpu::params::{FrameParams, Specialisation, material_kind};
 use crate::shading::gpu::radiance::{
-    FLOOR, Hit, SPHERE, SphereAt, cross3, dot3, env_texel, is_finite3, normalize3, radiance_from, sin_cos_turns,
-    texel_of, xyz,
+    FLOOR, Hit, SPHERE, SphereAt, cross3, dot3, env_texel, intersect_sphere, is_finite3, normalize3, radiance_from,
+    sin_cos_turns, texel_of, xyz,
 };
 use crate::shading::gpu::sampler32::pixel_seed;
 
@@ -421,11 +421,20 @@ fn shade_point(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2) -> 
     let origin = xyz(p.cam_origin);
     let point_on_ray = origin + camera_ray(ap, s) * depth;
     let sphere = sphere_straight(p, &k.spec, t);
+    let dir = normalize3(camera_ray(ap, s));
     let hit = if tri.flags[0] == SPHERE {
-        let mut n = point_on_ray - sphere.centre;
+        // The ray's front hit on the true sphere, else the radial projection (as `shade`).
+        let along = intersect_sphere(origin, dir, sphere.centre, sphere.radius);
+        let mut point = point_on_ray;
+        if along > 0.0 {
+            point = origin + dir * along;
+        }
+        let mut n = point - sphere.centre;
         let len2 = dot3(n, n);
         n = if len2 > 0.0 && is_finite1(len2) { n / len2.sqrt() } else { Vec3::Y };
-        let point = sphere.centre + n * sphere.radius;
+        if !(along > 0.0) {
+            point = sphere.centre + n * sphere.radius;
+        }
         let dp = point - origin;
         Hit { t: dot3(dp, dp).sqrt(), point, normal: n, surface: SPHERE }
     } else {
@@ -434,7 +443,7 @@ fn shade_point(k: &Kernel<'_>, tri: &GpuTriangle, iv: &GpuInterval, s: Vec2) -> 
         let dp = point - origin;
         Hit { t: dot3(dp, dp).sqrt(), point, normal: Vec3::Y, surface: FLOOR }
     };
-    ShadePoint { sphere, hit, dir: normalize3(camera_ray(ap, s)) }
+    ShadePoint { sphere, hit, dir }
 }
 
 /// A sphere point facing away from the ray: shaded from the sphere's inside, where no light

@@ -535,16 +535,25 @@ fn shade_point(ti: u32, iv: Interval, s: vec2<f32>) -> ShadePoint {
     let origin = params.cam_origin.xyz;
     let p = origin + camera_ray(s) * depth;
     let sphere = sphere_straight(t);
+    let dir = normalize3(camera_ray(s));
     var hit: Hit;
     if triangles[ti].flags.x == SPHERE {
-        var n = p - sphere.centre;
+        // The ray's front hit on the true sphere, else the radial projection (as `shade`).
+        let along = intersect_sphere(origin, dir, sphere.centre, sphere.radius);
+        var point = p;
+        if along > 0.0 {
+            point = origin + dir * along;
+        }
+        var n = point - sphere.centre;
         let len2 = dot3(n, n);
         if len2 > 0.0 && is_finite1(len2) {
             n = n / sqrt(len2);
         } else {
             n = vec3<f32>(0.0, 1.0, 0.0);
         }
-        let point = sphere.centre + n * sphere.radius;
+        if !(along > 0.0) {
+            point = sphere.centre + n * sphere.radius;
+        }
         let dp = point - origin;
         hit = Hit(sqrt(dot3(dp, dp)), point, n, SPHERE);
     } else {
@@ -553,7 +562,7 @@ fn shade_point(ti: u32, iv: Interval, s: vec2<f32>) -> ShadePoint {
         let dp = point - origin;
         hit = Hit(sqrt(dot3(dp, dp)), point, vec3<f32>(0.0, 1.0, 0.0), FLOOR);
     }
-    return ShadePoint(sphere, hit, normalize3(camera_ray(s)));
+    return ShadePoint(sphere, hit, dir);
 }
 
 // A sky near f32's maximum makes the running sum of finite lighting samples overflow. Once

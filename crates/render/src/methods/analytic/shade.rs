@@ -5,8 +5,9 @@
 //! lighting samples. Visibility is exact, so the only noise left is the shading's.
 //!
 //! The point shaded is where the pixel's ray meets the moving triangle at the midpoint
-//! (its exact depth, Eq. 15); on the sphere it is projected onto the true sphere, whose
-//! normal it takes, so the tessellation shows only in the silhouette.
+//! (its exact depth, Eq. 15) on the floor, and where the same ray meets the true sphere at
+//! the midpoint on the sphere, whose normal it takes, so the tessellation shows only in the
+//! silhouette.
 
 use glam::{DQuat, DVec2, DVec3};
 use study::scene::FrameScene;
@@ -16,7 +17,7 @@ use super::edge::TriangleSetup;
 use super::geometry::{CameraFrame, SurfaceKind};
 use super::interval::Interval;
 use crate::shading::integrator::{PathTracer, SphereState};
-use crate::shading::intersect::{Geometry, Hit, Ray, Surface};
+use crate::shading::intersect::{Geometry, Hit, Ray, Surface, intersect_sphere};
 use crate::shading::sampler::{PixelSampler, dim};
 
 /// What shading needs of a frame and one of its views.
@@ -113,11 +114,19 @@ impl<'a> Shading<'a> {
         let p = self.camera.to_world(DVec3::new(s.x * depth, s.y * depth, 1.0 * depth));
         let sphere = self.sphere_at(t);
         let origin = self.camera.origin;
+        let ray = Ray { origin, dir: self.camera.direction(s) };
         let hit = match surface {
             SurfaceKind::Sphere => {
                 let g = &sphere.geometry;
-                let n = (p - g.centre).normalize_or(DVec3::Y);
-                let point = g.centre + n * g.radius;
+                // The ray's front hit on the true sphere: the tessellation is inscribed, so a
+                // ray through a covering triangle meets the sphere in front of it. The radial
+                // projection of the triangle's point is only the fallback (a midpoint off its
+                // triangle after compression): at the limb it lands on the back hemisphere.
+                let point = match intersect_sphere(&ray, g.centre, g.radius) {
+                    Some(along) => ray.origin + ray.dir * along,
+                    None => g.centre + (p - g.centre).normalize_or(DVec3::Y) * g.radius,
+                };
+                let n = (point - g.centre).normalize_or(DVec3::Y);
                 Hit { t: (point - origin).length(), point, normal: n, surface: Surface::Sphere }
             }
             SurfaceKind::Floor => {
@@ -126,7 +135,6 @@ impl<'a> Shading<'a> {
                 Hit { t: (point - origin).length(), point, normal: DVec3::Y, surface: Surface::Floor }
             }
         };
-        let ray = Ray { origin, dir: self.camera.direction(s) };
         // A sphere point facing away from the pixel's ray (a midpoint off the triangle, e.g.
         // after compression merged intervals) would be shaded from the sphere's inside: no
         // light reaches there (every shadow ray is occluded) and its path never escapes: its

@@ -131,7 +131,7 @@ pub(crate) struct Hit {
 
 // The sphere's and the floor's roots are the f64 reference's own body in f32
 // (`crate::shading::intersect`); WGSL has no Option, so no root is -1.
-fn intersect_sphere(o: Vec3, d: Vec3, centre: Vec3, radius: f32) -> f32 {
+pub(crate) fn intersect_sphere(o: Vec3, d: Vec3, centre: Vec3, radius: f32) -> f32 {
     sphere_root_f32(o, d, centre, radius).unwrap_or(-1.0)
 }
 
