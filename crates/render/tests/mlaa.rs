@@ -357,7 +357,11 @@ fn antialiasing_levels_approach_the_reference_in_order_and_mlaa_improves_on_one_
     for name in ["reference.png", "M2-S1-T1-A2-analytic.png", "M2-S1-T1-A2-analytic6-flip.png"] {
         assert!(out.path().join(name).is_file(), "{name}");
     }
-    // Frames past the preset are refused before anything is rendered.
+    // Frames past the preset and a FLIP resolution it cannot judge at are refused before
+    // anything is rendered.
+    let blind = AntialiasingOptions { pixels_per_degree: Some(0.1), ..opts.clone() };
+    let e = run_antialiasing_quality(&design, &blind, |_, _| {}).unwrap_err().to_string();
+    assert!(e.contains("--ppd 0.1: must lie in 0.5..=1000"), "{e}");
     let past = AntialiasingOptions { frame: 7, ..opts };
     let e = run_antialiasing_quality(&design, &past, |_, _| {}).unwrap_err().to_string();
     assert!(e.contains("outside the preset `quick`"), "{e}");
