@@ -2,6 +2,11 @@
 //! and one row per trial, appended and synced before the next trial starts. The runner
 //! writes it, the analysis reads it; docs/formats.md describes it.
 //!
+//! Format `blurlab-responses/2` adds the columns `scale` and `visual_angle_deg` (the scale
+//! and visual angle at which the trial was actually drawn); logs of `blurlab-responses/1`
+//! (without them) are still read, their rows with `None` there, and resuming one rewrites it
+//! as `/2` first (see [`ResponseLog::resume`]).
+//!
 //! A log killed mid-write can end in a partial row. Reading reports such a trailing row
 //! (it is never silently dropped); [`ResponseLog::resume`] keeps its text as a comment line
 //! and appends after it.
@@ -15,11 +20,39 @@ use std::str::FromStr;
 use crate::fsio::write_atomic;
 use crate::ids::StimulusId;
 
-/// First line of every log.
-pub const RESPONSES_FORMAT: &str = "blurlab-responses/1";
+/// First line of every log written now.
+pub const RESPONSES_FORMAT: &str = "blurlab-responses/2";
+/// First line of logs of the previous format, still read.
+pub const RESPONSES_FORMAT_V1: &str = "blurlab-responses/1";
 /// The column header row.
-pub const COLUMNS: &str = "trial,practice,task,shown,choice,correct,response_ms,replays,dropped_frames,timestamp";
-const COLUMN_COUNT: usize = 10;
+pub const COLUMNS: &str =
+    "trial,practice,task,shown,choice,correct,response_ms,replays,dropped_frames,timestamp,scale,visual_angle_deg";
+/// The column header row of `blurlab-responses/1` logs.
+pub const COLUMNS_V1: &str = "trial,practice,task,shown,choice,correct,response_ms,replays,dropped_frames,timestamp";
+/// Relative difference between a trial's recorded scale and the calibrated one above which
+/// the trial counts as shown off-calibration (0.5 %).
+pub const SCALE_TOLERANCE: f64 = 0.005;
+
+/// Whether a trial drawn at `recorded` screen pixels per stimulus pixel was shown
+/// off-calibration, i.e. differs from the `calibrated` scale by more than
+/// [`SCALE_TOLERANCE`] of it. The one rule shared by the runner's summary and the analysis.
+pub fn off_calibration(recorded: f64, calibrated: f64) -> bool {
+    (recorded - calibrated).abs() > SCALE_TOLERANCE * calibrated.abs()
+}
+
+/// The format version (1 or 2) named by a first line's text after `#`, if it names one.
+fn format_version(comment: &str) -> Option<u32> {
+    match comment.trim() {
+        RESPONSES_FORMAT => Some(2),
+        RESPONSES_FORMAT_V1 => Some(1),
+        _ => None,
+    }
+}
+
+/// The column row of a format version.
+fn columns_of(version: u32) -> &'static str {
+    if version == 1 { COLUMNS_V1 } else { COLUMNS }
+}
 /// Header keys every log must have.
 pub const REQUIRED_KEYS: [&str; 7] =
     ["experiment", "experiment_sha256", "stimulus_set_sha256", "software_version", "seed", "participant", "session"];
@@ -102,6 +135,12 @@ pub struct TrialRow {
     pub dropped_frames: u32,
     /// UTC time of the answer, RFC 3339.
     pub timestamp: String,
+    /// Screen pixels per stimulus pixel at which the trial was actually drawn (`None` in
+    /// `blurlab-responses/1` logs and for trials no window drew, e.g. simulated observers).
+    pub scale: Option<f64>,
+    /// The visual angle in degrees that one eye's image actually subtended (`None` where
+    /// `scale` is).
+    pub visual_angle_deg: Option<f64>,
 }
 
 impl TrialRow {
@@ -113,8 +152,9 @@ impl TrialRow {
             Some(false) => "0",
             None => "",
         };
+        let number = |v: Option<f64>| v.map(|v| v.to_string()).unwrap_or_default();
         format!(
-            "{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
             self.trial,
             u8::from(self.practice),
             self.task,
@@ -124,15 +164,29 @@ impl TrialRow {
             self.response_ms,
             self.replays,
             self.dropped_frames,
-            self.timestamp
+            self.timestamp,
+            number(self.scale),
+            number(self.visual_angle_deg)
         )
     }
 
-    /// Parses a CSV line.
+    /// Parses a CSV line of the current format (`blurlab-responses/2`).
     pub fn parse_line(line: &str) -> Result<Self, String> {
+        Self::parse_line_of(line, 2)
+    }
+
+    /// Parses a CSV line of a `blurlab-responses/1` log (no `scale` and `visual_angle_deg`
+    /// columns: both are `None`).
+    pub fn parse_line_v1(line: &str) -> Result<Self, String> {
+        Self::parse_line_of(line, 1)
+    }
+
+    fn parse_line_of(line: &str, version: u32) -> Result<Self, String> {
+        let columns = columns_of(version);
+        let count = columns.split(',').count();
         let cols: Vec<&str> = line.split(',').collect();
-        if cols.len() != COLUMN_COUNT {
-            return Err(format!("found {} columns, expected {COLUMN_COUNT} ({COLUMNS})", cols.len()));
+        if cols.len() != count {
+            return Err(format!("found {} columns, expected {count} ({columns})", cols.len()));
         }
         let num = |i: usize, name: &str| -> Result<u64, String> {
             cols[i].parse::<u64>().map_err(|_| format!("column `{name}` is `{}`, expected a whole number", cols[i]))
@@ -161,6 +215,24 @@ impl TrialRow {
             return Err(format!("choice {choice} is not one of the offered stimuli"));
         }
         let to_u32 = |v: u64, name: &str| u32::try_from(v).map_err(|_| format!("column `{name}` is too large"));
+        let positive = |i: usize, name: &str| -> Result<Option<f64>, String> {
+            if cols[i].is_empty() {
+                return Ok(None);
+            }
+            match cols[i].parse::<f64>() {
+                Ok(v) if v.is_finite() && v > 0.0 => Ok(Some(v)),
+                _ => Err(format!("column `{name}` is `{}`, expected a positive number or empty", cols[i])),
+            }
+        };
+        let (scale, visual_angle_deg) = if version == 1 {
+            (None, None)
+        } else {
+            let pair = (positive(10, "scale")?, positive(11, "visual_angle_deg")?);
+            if pair.0.is_some() != pair.1.is_some() {
+                return Err("columns `scale` and `visual_angle_deg` must both be given or both be empty".into());
+            }
+            pair
+        };
         Ok(TrialRow {
             trial: to_u32(num(0, "trial")?, "trial")?,
             practice: flag(1, "practice")?.ok_or("column `practice` is empty, expected 0 or 1")?,
@@ -172,6 +244,8 @@ impl TrialRow {
             replays: to_u32(num(7, "replays")?, "replays")?,
             dropped_frames: to_u32(num(8, "dropped_frames")?, "dropped_frames")?,
             timestamp: cols[9].to_owned(),
+            scale,
+            visual_angle_deg,
         })
     }
 }
@@ -200,6 +274,8 @@ pub struct SessionLog {
     pub trailing_corrupt: Option<CorruptRow>,
     /// Whether the session ran to its end (`# completed:` line present).
     pub completed: bool,
+    /// The format version of the file: 2 (`blurlab-responses/2`) or 1 (read, never written).
+    pub format_version: u32,
 }
 
 /// Why a log cannot be read or written.
@@ -233,7 +309,8 @@ impl SessionLog {
         Self::parse(path, &text)
     }
 
-    /// Parses log text read from `path`. A leading byte-order mark is skipped. Ambiguous
+    /// Parses log text read from `path`, of format `blurlab-responses/2` or `/1` (whose rows
+    /// have no scale). A leading byte-order mark is skipped. Ambiguous
     /// logs are errors naming the line: a header key given twice with different values (in
     /// the header or as a comment among the rows), a `session` that is not a number, a second
     /// format line or column row (two logs concatenated), a row after `# completed`, and a
@@ -243,9 +320,13 @@ impl SessionLog {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let ends_with_newline = text.ends_with('\n');
         let lines: Vec<&str> = text.lines().collect();
-        if lines.first().map(|l| l.trim()) != Some(&format!("# {RESPONSES_FORMAT}")[..]) {
-            return Err(bad(1, format!("expected `# {RESPONSES_FORMAT}` as the first line")));
-        }
+        let Some(version) = lines.first().and_then(|l| l.trim().strip_prefix('#')).and_then(format_version) else {
+            return Err(bad(
+                1,
+                format!("expected `# {RESPONSES_FORMAT}` (or `# {RESPONSES_FORMAT_V1}`) as the first line"),
+            ));
+        };
+        let columns = columns_of(version);
         let mut header = SessionHeader::default();
         let mut header_lines: Vec<usize> = Vec::new();
         let mut rows: Vec<(usize, TrialRow)> = Vec::new();
@@ -260,7 +341,7 @@ impl SessionLog {
                 let comment = comment.trim();
                 if comment.starts_with("completed:") {
                     completed.get_or_insert(line_no);
-                } else if comment == RESPONSES_FORMAT {
+                } else if format_version(comment).is_some() {
                     return Err(bad(line_no, "a second log begins here (two logs concatenated into one file)".into()));
                 } else if !seen_columns {
                     let (k, v) = comment
@@ -299,16 +380,16 @@ impl SessionLog {
                 continue;
             }
             if !seen_columns {
-                if raw.trim() != COLUMNS {
-                    return Err(bad(line_no, format!("expected the column row `{COLUMNS}`")));
+                if raw.trim() != columns {
+                    return Err(bad(line_no, format!("expected the column row `{columns}`")));
                 }
                 seen_columns = true;
                 continue;
             }
-            if raw.trim() == COLUMNS {
+            if raw.trim() == COLUMNS || raw.trim() == COLUMNS_V1 {
                 return Err(bad(line_no, "a second column row (two logs concatenated into one file)".into()));
             }
-            let row = match TrialRow::parse_line(raw) {
+            let row = match TrialRow::parse_line_of(raw, version) {
                 Ok(row) if !is_last || ends_with_newline => row,
                 Ok(_) => {
                     trailing_corrupt = Some(CorruptRow {
@@ -337,7 +418,7 @@ impl SessionLog {
             rows.push((line_no, row));
         }
         if !seen_columns {
-            return Err(bad(lines.len() + 1, format!("missing the column row `{COLUMNS}`")));
+            return Err(bad(lines.len() + 1, format!("missing the column row `{columns}`")));
         }
         for key in REQUIRED_KEYS {
             if header.get(key).is_none() {
@@ -352,7 +433,14 @@ impl SessionLog {
                 format!("header key `session` is `{}`, not a session number", header.fields[at].1),
             ));
         }
-        Ok(SessionLog { path: path.to_owned(), header, rows, trailing_corrupt, completed: completed.is_some() })
+        Ok(SessionLog {
+            path: path.to_owned(),
+            header,
+            rows,
+            trailing_corrupt,
+            completed: completed.is_some(),
+            format_version: version,
+        })
     }
 }
 
@@ -383,19 +471,38 @@ impl ResponseLog {
     }
 
     /// Reopens an existing log to continue it. A corrupt trailing row is kept as a comment
-    /// (`# corrupt-trailing-row line N: ...`) so nothing is lost, and returned in the log.
+    /// (`# corrupt-trailing-row line N: ...`) so nothing is lost, and returned in the log. A
+    /// `blurlab-responses/1` log is rewritten as `/2` first (format line, column row, and its
+    /// rows with empty `scale` and `visual_angle_deg`; every other line kept), so that the rows
+    /// appended after it have the columns the file declares. Rewrites are atomic. The returned
+    /// log is the file as read, before any rewrite (its line numbers stay valid).
     pub fn resume(path: &Path) -> Result<(Self, SessionLog), ResponseError> {
         let io_err = |source| ResponseError::Io { path: path.to_owned(), source };
         let log = SessionLog::read(path)?;
-        if let Some(corrupt) = &log.trailing_corrupt {
-            let text = std::fs::read_to_string(path).map_err(io_err)?;
-            let mut kept: Vec<&str> = text.lines().collect();
-            kept.truncate(corrupt.line - 1);
+        if log.trailing_corrupt.is_some() || log.format_version != 2 {
+            let bytes = std::fs::read(path).map_err(io_err)?;
+            let text = String::from_utf8_lossy(&bytes);
+            let mut kept: Vec<String> = text.lines().map(str::to_owned).collect();
+            if let Some(corrupt) = &log.trailing_corrupt {
+                kept.truncate(corrupt.line - 1);
+            }
+            if log.format_version == 1 {
+                kept[0] = format!("# {RESPONSES_FORMAT}");
+                if let Some(columns) = kept.iter_mut().find(|l| l.trim() == COLUMNS_V1) {
+                    *columns = COLUMNS.to_owned();
+                }
+                for (line, row) in &log.rows {
+                    kept[line - 1] = row.to_line();
+                }
+            }
             let mut repaired = kept.join("\n");
-            repaired.push_str(&format!(
-                "\n# corrupt-trailing-row line {}: {} ({})\n",
-                corrupt.line, corrupt.text, corrupt.reason
-            ));
+            repaired.push('\n');
+            if let Some(corrupt) = &log.trailing_corrupt {
+                repaired.push_str(&format!(
+                    "# corrupt-trailing-row line {}: {} ({})\n",
+                    corrupt.line, corrupt.text, corrupt.reason
+                ));
+            }
             write_atomic(path, repaired.as_bytes()).map_err(io_err)?;
         }
         let file = OpenOptions::new().append(true).open(path).map_err(io_err)?;
@@ -474,7 +581,27 @@ mod tests {
             replays: 1,
             dropped_frames: 0,
             timestamp: utc_timestamp(0),
+            scale: Some(2.5),
+            visual_angle_deg: Some(14.512_345_678_9),
         }
+    }
+
+    /// A `blurlab-responses/1` log of three rows (lines 10-12), the last without a line end
+    /// when `partial`.
+    fn v1_log(partial: bool) -> String {
+        let mut text = format!("# {RESPONSES_FORMAT_V1}\n");
+        for (k, v) in &header().fields {
+            text.push_str(&format!("# {k}: {v}\n"));
+        }
+        text.push_str(COLUMNS_V1);
+        text.push('\n');
+        text.push_str("0,1,2afc,M2-S2-T3-A5|M2-S2-T5-A5,M2-S2-T5-A5,,1200,1,0,1970-01-01T00:00:00.000Z\n");
+        text.push_str("1,0,2afc,M2-S2-T5-A5|M2-S2-T3-A5,M2-S2-T3-A5,,900,0,2,1970-01-01T00:00:01.000Z\n");
+        text.push_str("2,0,2afc,M2-S2-T3-A5|M2-S2-T5-A5,M2-S2-T3-A5,,800,0,0,1970-01-01T00:00:02.000Z");
+        if !partial {
+            text.push('\n');
+        }
+        text
     }
 
     #[test]
@@ -567,12 +694,109 @@ mod tests {
         }
         text.push_str(COLUMNS);
         text.push('\n');
-        text.push_str("0,0,2afc,M2-S2-T3-A5|M2-S2-T5-A5,M2-S2-T4-A5,,10,0,0,t\n");
+        text.push_str("0,0,2afc,M2-S2-T3-A5|M2-S2-T5-A5,M2-S2-T4-A5,,10,0,0,t,,\n");
         text.push_str(&row(1).to_line());
         text.push('\n');
         let e = SessionLog::parse(path, &text).unwrap_err().to_string();
         assert!(e.contains("session-1.csv: line 10: choice M2-S2-T4-A5 is not one of the offered"), "{e}");
         let e = SessionLog::parse(path, "hello\n").unwrap_err().to_string();
-        assert!(e.contains("line 1: expected `# blurlab-responses/1`"), "{e}");
+        assert!(e.contains("line 1: expected `# blurlab-responses/2` (or `# blurlab-responses/1`)"), "{e}");
+    }
+
+    #[test]
+    fn a_v2_row_round_trips_its_scale_and_angle_exactly() {
+        let mut r = row(3);
+        r.scale = Some(0.613_725_490_196_078_4);
+        r.visual_angle_deg = Some(8.901_234_567_890_123);
+        let line = r.to_line();
+        assert_eq!(line.split(',').count(), COLUMNS.split(',').count());
+        assert!(line.ends_with(",0.6137254901960784,8.901234567890123"), "{line}");
+        assert_eq!(TrialRow::parse_line(&line).unwrap(), r);
+        // No window drew the trial: both columns empty, read back as None.
+        let unscaled = TrialRow { scale: None, visual_angle_deg: None, ..row(1) };
+        assert!(unscaled.to_line().ends_with("Z,,"), "{}", unscaled.to_line());
+        assert_eq!(TrialRow::parse_line(&unscaled.to_line()).unwrap(), unscaled);
+        // A v2 line is not a v1 line and the other way round.
+        assert!(TrialRow::parse_line_v1(&line).unwrap_err().contains("found 12 columns, expected 10"));
+        let v1 = line.rsplitn(3, ',').nth(2).unwrap();
+        assert!(TrialRow::parse_line(v1).unwrap_err().contains("found 10 columns, expected 12"));
+    }
+
+    #[test]
+    fn bad_scale_columns_are_errors_naming_the_line() {
+        let path = Path::new("results/x/P01/session-1.csv");
+        let mut valid = format!("# {RESPONSES_FORMAT}\n");
+        for (k, v) in &header().fields {
+            valid.push_str(&format!("# {k}: {v}\n"));
+        }
+        valid.push_str(COLUMNS);
+        valid.push('\n');
+        valid.push_str(&row(0).to_line());
+        valid.push('\n');
+        let log = SessionLog::parse(path, &valid).unwrap();
+        assert_eq!((log.format_version, log.rows[0].1.scale), (2, Some(2.5)));
+        let good = row(1).to_line();
+        for (bad, message) in [
+            (good.replace(",2.5,", ",-2.5,"), "column `scale` is `-2.5`, expected a positive number or empty"),
+            (good.replace(",2.5,", ",x,"), "column `scale` is `x`"),
+            (good.replace(",14.5123456789", ",NaN"), "column `visual_angle_deg` is `NaN`"),
+            (good.replace(",2.5,", ",,"), "columns `scale` and `visual_angle_deg` must both be given or both be empty"),
+        ] {
+            let text = format!("{valid}{bad}\n{}\n", row(2).to_line());
+            let e = SessionLog::parse(path, &text).unwrap_err().to_string();
+            assert!(e.contains(&format!("session-1.csv: line 11: {message}")), "{e}");
+        }
+        // A v1 column row under a v2 format line (and the reverse) is refused.
+        let mixed = valid.replace(COLUMNS, COLUMNS_V1);
+        let e = SessionLog::parse(path, &mixed).unwrap_err().to_string();
+        assert!(e.contains(&format!("line 9: expected the column row `{COLUMNS}`")), "{e}");
+        let e = SessionLog::parse(path, &format!("{valid}# {RESPONSES_FORMAT_V1}\n")).unwrap_err().to_string();
+        assert!(e.contains("line 11: a second log begins here"), "{e}");
+    }
+
+    #[test]
+    fn a_v1_log_is_still_read_and_resuming_rewrites_it_as_v2() {
+        let path = Path::new("results/x/P01/session-1.csv");
+        let log = SessionLog::parse(path, &v1_log(false)).unwrap();
+        assert_eq!(log.format_version, 1);
+        let rows: Vec<&TrialRow> = log.rows.iter().map(|(_, r)| r).collect();
+        assert_eq!(rows.len(), 3);
+        assert_eq!((rows[1].trial, rows[1].response_ms, rows[1].dropped_frames), (1, 900, 2));
+        assert!(rows.iter().all(|r| r.scale.is_none() && r.visual_angle_deg.is_none()));
+        assert_eq!(log.rows.iter().map(|(l, _)| *l).collect::<Vec<_>>(), vec![10, 11, 12]);
+        // The v1 parser keeps its errors naming the line.
+        let bad = v1_log(false).replace(",900,", ",fast,");
+        let e = SessionLog::parse(path, &bad).unwrap_err().to_string();
+        assert!(e.contains("line 11: column `response_ms` is `fast`, expected a whole number"), "{e}");
+
+        // Resuming a v1 log with a partial last row: upgraded to v2, the partial row kept as
+        // a comment, new rows appended in v2; the old rows keep their values.
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("session-1.csv");
+        std::fs::write(&file, v1_log(true)).unwrap();
+        let (mut log, before) = ResponseLog::resume(&file).unwrap();
+        assert_eq!((before.format_version, before.rows.len()), (1, 2));
+        assert_eq!(before.trailing_corrupt.as_ref().unwrap().line, 12);
+        log.append(&row(2)).unwrap();
+        drop(log);
+        let text = std::fs::read_to_string(&file).unwrap();
+        assert!(text.starts_with(&format!("# {RESPONSES_FORMAT}\n")), "{text}");
+        assert!(text.contains(&format!("\n{COLUMNS}\n")) && !text.contains(&format!("{COLUMNS_V1}\n")), "{text}");
+        assert!(text.contains("# corrupt-trailing-row line 12: 2,0,2afc,"), "{text}");
+        let after = SessionLog::read(&file).unwrap();
+        assert_eq!(after.format_version, 2);
+        let old: Vec<TrialRow> = before.rows.iter().map(|(_, r)| r.clone()).collect();
+        let now: Vec<TrialRow> = after.rows.iter().map(|(_, r)| r.clone()).collect();
+        assert_eq!(now[..2], old[..]);
+        assert_eq!(now[2], row(2));
+        assert_eq!(after.header, before.header);
+    }
+
+    #[test]
+    fn off_calibration_is_a_difference_above_half_a_percent() {
+        assert!(!off_calibration(4.0, 4.0));
+        assert!(!off_calibration(4.0 * 1.0049, 4.0) && !off_calibration(4.0 * 0.9951, 4.0));
+        assert!(off_calibration(4.0 * 1.0051, 4.0) && off_calibration(4.0 * 0.9949, 4.0));
+        assert!(off_calibration(2.44, 4.0));
     }
 }
