@@ -1,7 +1,15 @@
-//! Reading the runner's response logs (`blurlab-responses/1`, docs/formats.md) into checked
-//! experiment data: every log of one experiment must agree on the experiment's definition
-//! and stimulus set, every row's stimuli must belong to the experiment, and the task and
-//! view must not change. Problems are errors naming the file and line.
+//! Reading the runner's response logs (`blurlab-responses/2`, and `/1` without the scale
+//! columns; docs/formats.md) into checked experiment data: every log of one experiment must
+//! agree on the experiment's definition and stimulus set, every row's stimuli must belong to
+//! the experiment, and the task and view must not change. Problems are errors naming the
+//! file and line.
+//!
+//! Counted trials shown off-calibration (a recorded `scale` more than 0.5 % from the
+//! calibrated `scale` in the header's `display`, the rule of
+//! `study::response::off_calibration`) are kept but warned about, naming the file and the
+//! trials: their judgements were made at another visual angle than the experiment asks for.
+//! Practice trials are not checked (they are never analysed), nor are logs whose header
+//! records no calibrated scale (simulated sessions) or rows without a scale (`/1` logs).
 //!
 //! Each `RESULTS` path is a log file or a folder searched recursively for `*.csv`. All logs
 //! found under one path must belong to one experiment (a folder mixing experiments is an
@@ -13,7 +21,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 use study::experiment::ExperimentDefinition;
-use study::response::{CorruptRow, ResponseError, SessionLog, Task};
+use study::response::{CorruptRow, ResponseError, SessionLog, Task, off_calibration};
 use study::{StimulusId, View};
 
 /// Why logs cannot be analysed.
@@ -177,6 +185,26 @@ fn attributes(log: &SessionLog) -> Result<BTreeMap<String, String>, LogError> {
         .collect())
 }
 
+/// The calibrated scale and visual angle recorded in a log's `display` header, if it
+/// records a scale; a `display` that is not JSON is reported in `warnings`.
+fn calibrated_scale(log: &SessionLog, warnings: &mut Vec<String>) -> Option<(f64, Option<f64>)> {
+    let text = log.header.get("display")?;
+    match serde_json::from_str::<serde_json::Value>(text) {
+        Ok(display) => {
+            let scale = display.get("scale")?.as_f64().filter(|s| s.is_finite() && *s > 0.0)?;
+            Some((scale, display.get("visual_angle_deg").and_then(serde_json::Value::as_f64)))
+        }
+        Err(e) => {
+            warnings.push(format!(
+                "{}: line {}: header `display` is not JSON ({e}); its trials' scale is not checked against the calibration",
+                log.path.display(),
+                header_line(&log.path, "display")
+            ));
+            None
+        }
+    }
+}
+
 /// Reads every log under `paths` and groups them by experiment, checking consistency.
 pub fn load_experiments(paths: &[PathBuf], options: &LoadOptions) -> Result<Vec<ExperimentData>, LogError> {
     let mut by_name: BTreeMap<String, Vec<SessionLog>> = BTreeMap::new();
@@ -271,9 +299,17 @@ fn check_experiment(name: String, logs: Vec<SessionLog>, options: &LoadOptions) 
     for log in logs {
         let index = sessions.len();
         let mut count = 0;
+        let calibrated = calibrated_scale(&log, &mut warnings);
+        let mut off = Vec::new();
         for (line, row) in &log.rows {
             if row.practice {
                 continue;
+            }
+            if let (Some((calibrated, _)), Some(scale)) = (calibrated, row.scale)
+                && off_calibration(scale, calibrated)
+            {
+                let angle = row.visual_angle_deg.map(|a| format!(", {a:.2} degrees")).unwrap_or_default();
+                off.push((row.trial, format!("trial {} (line {line}) at scale {scale:.3}{angle}", row.trial)));
             }
             let bad = |message: String| LogError::Inconsistent { path: log.path.clone(), line: *line, message };
             match &task {
@@ -328,6 +364,18 @@ fn check_experiment(name: String, logs: Vec<SessionLog>, options: &LoadOptions) 
                 correct: row.correct,
             });
             count += 1;
+        }
+        if let (Some((scale, angle)), false) = (calibrated, off.is_empty()) {
+            let trials: Vec<String> = off.iter().map(|(t, _)| t.to_string()).collect();
+            let details: Vec<String> = off.into_iter().map(|(_, d)| d).collect();
+            warnings.push(format!(
+                "{}: {} shown off-calibration (trials {}): the recorded scale differs by more than 0.5 % from the calibrated scale {scale:.3}{} in the header's `display`, so they subtended another visual angle than calibrated: {}",
+                log.path.display(),
+                if trials.len() == 1 { "1 counted trial".to_owned() } else { format!("{} counted trials", trials.len()) },
+                trials.join(", "),
+                angle.map(|a| format!(" ({a:.2} degrees)")).unwrap_or_default(),
+                details.join("; ")
+            ));
         }
         if let Some(CorruptRow { line, reason, .. }) = &log.trailing_corrupt {
             warnings.push(format!("{}: line {line}: partial last row not counted ({reason})", log.path.display()));

@@ -44,6 +44,8 @@ fn row(trial: u32, task: Task, shown: Vec<StimulusId>, choice: StimulusId, corre
         replays: 0,
         dropped_frames: 0,
         timestamp: "2026-11-23T12:00:00.000Z".into(),
+        scale: None,
+        visual_angle_deg: None,
     }
 }
 
@@ -293,6 +295,93 @@ fn mono_and_stereo_interactions_give_a_full_report_with_costs_and_figures() {
     assert_eq!(json["experiments"][0]["paired"]["scale"]["options"]["seed"], 3);
 }
 
+/// Writes a 2AFC log whose header's `display` records the calibrated scale 4 (14.5 degrees)
+/// and whose rows record `scales[k]` (practice for the first row).
+fn write_scaled_session(path: &Path, participant: &str, display: &str, scales: &[Option<f64>]) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let mut h = header("scaled", participant, 1, "{}");
+    h.set("display", display);
+    let mut log = ResponseLog::create(path, &h).unwrap();
+    let stimuli: Vec<StimulusId> = (1..=3).map(|a| id(&format!("M3-S2-T3-A{a}"))).collect();
+    for (k, scale) in scales.iter().enumerate() {
+        let (a, b) = (stimuli[k % 3], stimuli[(k + 1) % 3]);
+        let mut r = row(k as u32, Task::TwoAfc, vec![a, b], a, None);
+        r.practice = k == 0;
+        r.scale = *scale;
+        r.visual_angle_deg = scale.map(|s| 14.5 * s / 4.0);
+        log.append(&r).unwrap();
+    }
+    log.mark_completed("2026-11-23T12:10:00.000Z").unwrap();
+}
+
+#[test]
+fn trials_shown_off_calibration_are_warned_about_naming_file_and_trials() {
+    use analysis::logs::{LoadOptions, load_experiments};
+    let dir = tempfile::tempdir().unwrap();
+    let results = dir.path().join("results");
+    let display = r#"{"mode":"mono","scale":4.0,"visual_angle_deg":14.5}"#;
+    // P1: the practice trial (0) and trials 2 and 4 off; trial 3 is 0.4 % off, within 0.5 %.
+    let off = results.join("P1/session-1.csv");
+    write_scaled_session(
+        &off,
+        "P1",
+        display,
+        &[Some(2.0), Some(4.0), Some(2.4), Some(4.016), Some(4.0 * 0.994), None, Some(4.0)],
+    );
+    // P2: every trial as calibrated (exactly, and within the tolerance either side).
+    write_scaled_session(
+        &results.join("P2/session-1.csv"),
+        "P2",
+        display,
+        &[Some(4.0), Some(4.0), Some(3.99), Some(4.019)],
+    );
+    // P3: a simulated session, no calibrated scale in the header, rows without a scale.
+    write_scaled_session(&results.join("P3/session-1.csv"), "P3", r#"{"mode":"simulated"}"#, &[None, None, None]);
+    // P4: a blurlab-responses/1 log (rows have no scale) under a calibrated header.
+    let v1 = results.join("P4/session-1.csv");
+    std::fs::create_dir_all(v1.parent().unwrap()).unwrap();
+    let mut text = "# blurlab-responses/1\n".to_owned();
+    for (k, v) in &header("scaled", "P4", 1, "{}").fields {
+        text.push_str(&format!("# {k}: {v}\n"));
+    }
+    text.push_str(&format!("# display: {display}\n"));
+    text.push_str("trial,practice,task,shown,choice,correct,response_ms,replays,dropped_frames,timestamp\n");
+    text.push_str("0,0,2afc,M3-S2-T3-A1|M3-S2-T3-A2,M3-S2-T3-A1,,900,0,0,t\n# completed: t\n");
+    std::fs::write(&v1, text).unwrap();
+
+    let data = load_experiments(std::slice::from_ref(&results), &LoadOptions::default()).unwrap();
+    assert_eq!(data.len(), 1);
+    let warnings: Vec<&String> = data[0].warnings.iter().filter(|w| w.contains("off-calibration")).collect();
+    assert_eq!(warnings.len(), 1, "{:?}", data[0].warnings);
+    let w = warnings[0];
+    assert!(w.starts_with(&format!("{}: 2 counted trials shown off-calibration (trials 2, 4)", off.display())), "{w}");
+    assert!(w.contains("calibrated scale 4.000 (14.50 degrees)"), "{w}");
+    assert!(w.contains("trial 2 (line 14) at scale 2.400, 8.70 degrees"), "{w}");
+    assert!(w.contains("trial 4 (line 16) at scale 3.976, 14.41 degrees"), "{w}");
+    assert!(!w.contains("trial 3 ") && !w.contains("trial 0 "), "{w}");
+    // The v1 log is read: its one counted trial counts, with no scale.
+    assert_eq!(data[0].sessions.iter().find(|s| s.participant == "P4").unwrap().trials, 1);
+
+    // Without any off-calibration trial, no warning.
+    std::fs::remove_file(&off).unwrap();
+    write_scaled_session(&off, "P1", display, &[Some(4.0), Some(4.0), Some(4.0)]);
+    let data = load_experiments(std::slice::from_ref(&results), &LoadOptions::default()).unwrap();
+    assert!(data[0].warnings.iter().all(|w| !w.contains("calibrat")), "{:?}", data[0].warnings);
+
+    // A `display` that is not JSON is said, with its line.
+    std::fs::remove_file(&off).unwrap();
+    write_scaled_session(&off, "P1", "{not json", &[Some(4.0), Some(2.0)]);
+    let data = load_experiments(std::slice::from_ref(&results), &LoadOptions::default()).unwrap();
+    assert!(
+        data[0]
+            .warnings
+            .iter()
+            .any(|w| w.contains(&format!("{}: line 10: header `display` is not JSON", off.display()))),
+        "{:?}",
+        data[0].warnings
+    );
+}
+
 #[test]
 fn repeated_pairs_and_sessions_count_as_separate_judges_or_pooled() {
     let dir = tempfile::tempdir().unwrap();
@@ -391,7 +480,7 @@ fn bad_logs_are_errors_naming_file_and_line() {
 
     // Unknown stimulus id (not in the set's manifest), in the middle of the file.
     let mut bad: Vec<String> = lines.iter().map(|s| s.to_string()).collect();
-    bad[first_row + 2] = "2,0,2afc,M2-S2-T9-A3|M2-S2-T3-A3,M2-S2-T9-A3,,900,0,0,t".into();
+    bad[first_row + 2] = "2,0,2afc,M2-S2-T9-A3|M2-S2-T3-A3,M2-S2-T9-A3,,900,0,0,t,,".into();
     std::fs::write(&log, bad.join("\n") + "\n").unwrap();
     let line = format!("line {}", first_row + 3);
     expect_error(std::slice::from_ref(&mono), Some(&set), &["session-1.csv", &line, "unknown stimulus id M2-S2-T9"]);
@@ -401,7 +490,7 @@ fn bad_logs_are_errors_naming_file_and_line() {
     bad[first_row + 1].push_str(",extra");
     std::fs::write(&log, bad.join("\n") + "\n").unwrap();
     let line = format!("line {}", first_row + 2);
-    expect_error(std::slice::from_ref(&mono), None, &["P00/session-1.csv", &line, "found 11 columns"]);
+    expect_error(std::slice::from_ref(&mono), None, &["P00/session-1.csv", &line, "found 13 columns"]);
     std::fs::write(&log, &original).unwrap();
 
     // Mixed experiments in one folder.
@@ -424,7 +513,7 @@ fn bad_logs_are_errors_naming_file_and_line() {
     // Mixed views within one experiment.
     let mut stereo_row: Vec<String> =
         original.replace("# participant: P00", "# participant: P99").lines().map(str::to_owned).collect();
-    stereo_row[first_row + 4] = "4,0,2afc,M2-S2-T3-A3-stereo|M2-S2-T3-A4-stereo,M2-S2-T3-A4-stereo,,900,0,0,t".into();
+    stereo_row[first_row + 4] = "4,0,2afc,M2-S2-T3-A3-stereo|M2-S2-T3-A4-stereo,M2-S2-T3-A4-stereo,,900,0,0,t,,".into();
     std::fs::write(&other, stereo_row.join("\n") + "\n").unwrap();
     expect_error(std::slice::from_ref(&mono), None, &["P99/session-1.csv", "mixed views"]);
     std::fs::remove_file(&other).unwrap();
