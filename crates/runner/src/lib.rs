@@ -86,6 +86,17 @@ pub enum RunnerError {
         /// Who holds it (boxed: it is the largest variant).
         holder: Box<study::lock::Holder>,
     },
+    /// The participant's last session is complete and starting another one was not
+    /// confirmed ([`session::SessionOptions::allow_new_session`]).
+    #[error("{}", sessions_complete_message(participant, sessions, dir))]
+    SessionsComplete {
+        /// The participant code.
+        participant: String,
+        /// The session numbers on record, ascending (the last one complete).
+        sessions: Vec<u32>,
+        /// The participant's folder.
+        dir: PathBuf,
+    },
     /// A command-line or start-screen value is unusable (participant code, model, display).
     #[error("{what}: {message}")]
     Input {
@@ -118,6 +129,17 @@ impl RunnerError {
             _ => true,
         }
     }
+}
+
+fn sessions_complete_message(participant: &str, sessions: &[u32], dir: &std::path::Path) -> String {
+    let files: Vec<String> = sessions.iter().map(|n| format!("session-{n}.csv")).collect();
+    let last = sessions.last().copied().unwrap_or(0);
+    format!(
+        "{}: participant {participant} has completed session {last} (on record: {}); starting a new session (session {}) must be confirmed by the experimenter first",
+        dir.display(),
+        files.join(", "),
+        last + 1
+    )
 }
 
 fn join_ids(ids: &[StimulusId]) -> String {

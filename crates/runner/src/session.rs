@@ -1,10 +1,15 @@
 //! A participant's session: `RESULTS/EXPERIMENT/PARTICIPANT/session-N.csv` in the
-//! `blurlab-responses/1` format (`study::response`), plus a frame-timing log beside it.
+//! `blurlab-responses/2` format (`study::response`), plus a frame-timing log beside it.
 //!
 //! [`Session::open`] resumes the participant's last session when it is incomplete (same
 //! schedule, rebuilt from the seed in its header, continuing at the first trial without a
-//! row) and otherwise starts session N+1. Resuming refuses a log whose experiment or stimulus
-//! set changed, or whose rows disagree with the schedule. [`Session::record`] appends the
+//! row; the participant attributes recorded in its header are kept, those given in the
+//! options ignored, and reported in [`Session::recorded_attributes`]). When the last session
+//! is complete it starts session N+1 only when [`SessionOptions::allow_new_session`] says the
+//! experimenter confirmed it, and otherwise refuses with [`RunnerError::SessionsComplete`].
+//! [`participant_status`] tells what exists beforehand, reading without locking or writing.
+//! Resuming refuses a log whose experiment or stimulus set changed, or whose rows disagree
+//! with the schedule. [`Session::record`] appends the
 //! trial's row and syncs it before returning, so a kill at any moment loses at most the trial
 //! on screen. A corrupt trailing row (a write cut by a kill) is reported in
 //! [`Session::warnings`] and kept in the log as a comment; that trial is shown again.
@@ -13,7 +18,10 @@
 //! (0-based position in the trial's `shown` list), `frame`, `due_ms` and `shown_ms` (from the
 //! start of the slot's playback) and `late` (1 when shown more than one refresh after it was
 //! due, or never shown). It is appended and synced just before the trial's row; a trial shown
-//! again after a kill can appear twice there.
+//! again after a kill can appear twice there. It holds no scale: the scale and visual angle
+//! at which a trial was drawn are per trial, not per frame, and are in the trial's row (the
+//! `scale` and `visual_angle_deg` columns), which the frame log's `trial` column joins to;
+//! repeating them on every frame line would only give two places that could disagree.
 //!
 //! One writer per participant: [`Session::open`] takes the lock file `session.lock` in the
 //! participant's folder (`study::lock`: host, pid and start time inside) and holds it until
@@ -26,7 +34,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use study::experiment::ExperimentDefinition;
-use study::response::{ResponseLog, SessionHeader, SessionLog, TrialRow, utc_timestamp_now};
+use study::response::{ResponseError, ResponseLog, SessionHeader, SessionLog, TrialRow, utc_timestamp_now};
 
 use crate::RunnerError;
 use crate::playback::PresentedFrame;
@@ -34,6 +42,7 @@ use crate::schedule::{self, Trial};
 use crate::stimuli::StimulusSet;
 
 /// Settings for a new session (ignored when resuming, except that a given seed must match).
+/// The default refuses a new session after a complete one (`allow_new_session` false).
 #[derive(Clone, Debug, Default)]
 pub struct SessionOptions {
     /// The schedule seed; a fresh one is drawn from the clock when absent.
@@ -42,6 +51,11 @@ pub struct SessionOptions {
     pub display: Option<serde_json::Value>,
     /// Participant attributes from the start screen, in definition order.
     pub attributes: Vec<(String, String)>,
+    /// Whether a new session may start after the participant's last session, if that one is
+    /// complete (the experimenter confirmed it). When false, [`Session::open`] refuses with
+    /// [`RunnerError::SessionsComplete`] instead. Irrelevant for a first session and when
+    /// resuming an incomplete one.
+    pub allow_new_session: bool,
 }
 
 /// A participant's answer to the trial on screen.
@@ -57,6 +71,14 @@ pub struct Answer {
     pub dropped_frames: u32,
     /// Every presented frame of the trial (for the frame log).
     pub frames: Vec<PresentedFrame>,
+    /// Screen pixels per stimulus pixel at which the trial's stimuli were actually drawn
+    /// (below the calibrated scale when the window was too small). 0 (the default) when no
+    /// window drew the trial (simulated observers): the row's `scale` and `visual_angle_deg`
+    /// columns are then left empty.
+    pub scale: f64,
+    /// The visual angle in degrees that one eye's image actually subtended at `scale`
+    /// (ignored when `scale` is 0).
+    pub visual_angle_deg: f64,
 }
 
 /// An open session.
@@ -76,6 +98,10 @@ pub struct Session {
     pub resumed: bool,
     /// Things the participant or experimenter should know (e.g. a corrupt trailing row).
     pub warnings: Vec<String>,
+    /// The participant attributes recorded in the log's header, in definition order (keys
+    /// the definition does not ask for follow, alphabetically): those of the options for a new
+    /// session, those recorded when it started for a resumed one.
+    pub recorded_attributes: Vec<(String, String)>,
     log: ResponseLog,
     frames: File,
     frames_path: PathBuf,
@@ -131,6 +157,136 @@ pub fn existing_sessions(dir: &Path) -> Vec<u32> {
     numbers
 }
 
+/// One session log of a participant, as [`participant_status`] found it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SessionStatus {
+    /// Session number N.
+    pub number: u32,
+    /// The log, `session-N.csv`.
+    pub path: PathBuf,
+    /// Counted (non-practice) trials answered (a partial last row not included).
+    pub counted_answered: usize,
+    /// Counted trials a session of the definition schedules (the same for every seed).
+    pub counted_total: usize,
+    /// Practice trials answered.
+    pub practice_answered: usize,
+    /// Whether the session ran to its end (`# completed` line).
+    pub completed: bool,
+}
+
+/// What a participant's folder holds: see [`participant_status`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParticipantStatus {
+    /// The participant code.
+    pub participant: String,
+    /// The participant's folder (it need not exist).
+    pub dir: PathBuf,
+    /// The session logs, by ascending session number; empty for a new participant.
+    pub sessions: Vec<SessionStatus>,
+    /// The attributes recorded in the most recent session's header (`attributes` JSON), in
+    /// definition order, other keys after them alphabetically; values as text. Empty for a
+    /// new participant.
+    pub attributes: Vec<(String, String)>,
+}
+
+impl ParticipantStatus {
+    /// The most recent session.
+    pub fn last(&self) -> Option<&SessionStatus> {
+        self.sessions.last()
+    }
+
+    /// Whether starting now would begin a new session after a complete one, which
+    /// [`Session::open`] does only with [`SessionOptions::allow_new_session`].
+    pub fn new_session_needs_confirmation(&self) -> bool {
+        self.last().is_some_and(|s| s.completed)
+    }
+
+    /// The session that starting now opens: the last one when it is incomplete (resumed),
+    /// otherwise the next number (1 for a new participant).
+    pub fn next_session(&self) -> u32 {
+        match self.last() {
+            Some(s) if !s.completed => s.number,
+            Some(s) => s.number + 1,
+            None => 1,
+        }
+    }
+}
+
+/// Reads the participant's existing session logs under `results` (without locking or
+/// writing anything): per session the counted trials answered out of the definition's
+/// counted trials, the practice trials answered and whether it is complete, and the
+/// attributes recorded in the most recent session's header. A participant without a folder
+/// or logs has no sessions. An invalid code, an unreadable or corrupt log, or a malformed
+/// `attributes` header is an error naming the file (and line).
+pub fn participant_status(
+    results: &Path,
+    definition: &ExperimentDefinition,
+    participant: &str,
+) -> Result<ParticipantStatus, RunnerError> {
+    check_participant(participant)?;
+    let dir = participant_dir(results, &definition.name, participant);
+    let counted_total = schedule::build(definition, 0).iter().filter(|t| !t.practice).count();
+    let mut sessions = Vec::new();
+    let mut attributes = Vec::new();
+    for number in existing_sessions(&dir) {
+        let path = dir.join(format!("session-{number}.csv"));
+        let log = SessionLog::read(&path)?;
+        let practice_answered = log.rows.iter().filter(|(_, r)| r.practice).count();
+        attributes = recorded_attributes(&log, definition)?;
+        sessions.push(SessionStatus {
+            number,
+            path,
+            counted_answered: log.rows.len() - practice_answered,
+            counted_total,
+            practice_answered,
+            completed: log.completed,
+        });
+    }
+    Ok(ParticipantStatus { participant: participant.to_owned(), dir, sessions, attributes })
+}
+
+/// Attribute pairs in definition order, then the keys the definition does not ask for
+/// (alphabetically, as the JSON map holds them); values as text.
+fn ordered_attributes(
+    mut map: serde_json::Map<String, serde_json::Value>,
+    definition: &ExperimentDefinition,
+) -> Vec<(String, String)> {
+    let text = |v: serde_json::Value| match v {
+        serde_json::Value::String(s) => s,
+        other => other.to_string(),
+    };
+    let mut out = Vec::new();
+    for a in &definition.attributes {
+        if let Some(v) = map.remove(&a.key) {
+            out.push((a.key.clone(), text(v)));
+        }
+    }
+    out.extend(map.into_iter().map(|(k, v)| (k, text(v))));
+    out
+}
+
+/// The attributes in a log's header (`attributes` JSON object); empty when absent.
+fn recorded_attributes(
+    log: &SessionLog,
+    definition: &ExperimentDefinition,
+) -> Result<Vec<(String, String)>, RunnerError> {
+    let Some(text) = log.header.get("attributes") else { return Ok(Vec::new()) };
+    let malformed = |message: String| {
+        let line = std::fs::read_to_string(&log.path)
+            .ok()
+            .and_then(|t| {
+                t.lines().position(|l| l.strip_prefix('#').is_some_and(|c| c.trim_start().starts_with("attributes:")))
+            })
+            .map_or(1, |i| i + 1);
+        RunnerError::Response(ResponseError::Malformed { path: log.path.clone(), line, message })
+    };
+    match serde_json::from_str(text) {
+        Ok(serde_json::Value::Object(map)) => Ok(ordered_attributes(map, definition)),
+        Ok(_) => Err(malformed(format!("header `attributes` is `{text}`, not a JSON object"))),
+        Err(e) => Err(malformed(format!("header `attributes` is not JSON ({e})"))),
+    }
+}
+
 fn fresh_seed(participant: &str) -> u64 {
     let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default().as_nanos();
     let code = participant.bytes().fold(0u64, |h, b| h.wrapping_mul(0x100_0000_01b3) ^ u64::from(b));
@@ -138,7 +294,9 @@ fn fresh_seed(participant: &str) -> u64 {
 }
 
 impl Session {
-    /// Resumes the participant's incomplete session or starts a new one.
+    /// Resumes the participant's incomplete session, or starts a new one: the first, or
+    /// after a complete session only when `options.allow_new_session` (else
+    /// [`RunnerError::SessionsComplete`], listing the sessions on record).
     pub fn open(
         definition: &ExperimentDefinition,
         set: &StimulusSet,
@@ -149,12 +307,20 @@ impl Session {
         check_participant(participant)?;
         let dir = participant_dir(results, &definition.name, participant);
         let lock = lock_participant(&dir, participant)?;
-        let last = existing_sessions(&dir).last().copied();
+        let existing = existing_sessions(&dir);
+        let last = existing.last().copied();
         if let Some(n) = last {
             let path = dir.join(format!("session-{n}.csv"));
             let log = SessionLog::read(&path)?;
             if !log.completed {
                 return Self::resume(definition, set, &path, n, options, lock);
+            }
+            if !options.allow_new_session {
+                return Err(RunnerError::SessionsComplete {
+                    participant: participant.to_owned(),
+                    sessions: existing,
+                    dir,
+                });
             }
         }
         let number = last.unwrap_or(0) + 1;
@@ -178,7 +344,8 @@ impl Session {
         }
         let attributes: serde_json::Map<String, serde_json::Value> =
             options.attributes.iter().map(|(k, v)| (k.clone(), serde_json::Value::String(v.clone()))).collect();
-        header.set("attributes", serde_json::Value::Object(attributes).to_string());
+        header.set("attributes", serde_json::Value::Object(attributes.clone()).to_string());
+        let recorded_attributes = ordered_attributes(attributes, definition);
         let log = ResponseLog::create(&path, &header)?;
         let (frames, frames_path) = open_frame_log(&path)?;
         Ok(Session {
@@ -189,6 +356,7 @@ impl Session {
             number,
             resumed: false,
             warnings: Vec::new(),
+            recorded_attributes,
             log,
             frames,
             frames_path,
@@ -264,6 +432,7 @@ impl Session {
                 read.rows.len()
             ));
         }
+        let recorded_attributes = recorded_attributes(&read, definition)?;
         let next = read.rows.len();
         if next == schedule.len() {
             log.mark_completed(&utc_timestamp_now())?;
@@ -277,6 +446,7 @@ impl Session {
             number,
             resumed: true,
             warnings,
+            recorded_attributes,
             log,
             frames,
             frames_path,
@@ -330,6 +500,18 @@ impl Session {
             what: "answer".into(),
             message: format!("slot {} is not one of the {} options", answer.slot, options.len()),
         })?;
+        let drawn = match (answer.scale, answer.visual_angle_deg) {
+            (0.0, _) => None,
+            (s, a) if s.is_finite() && s > 0.0 && a.is_finite() && a > 0.0 => Some((s, a)),
+            (s, a) => {
+                return Err(RunnerError::Input {
+                    what: "answer".into(),
+                    message: format!(
+                        "the trial was drawn at scale {s} and {a} degrees; expected positive numbers (scale 0 when no window drew it)"
+                    ),
+                });
+            }
+        };
         if !answer.frames.is_empty() {
             let mut text = String::new();
             for f in &answer.frames {
@@ -358,6 +540,8 @@ impl Session {
             replays: answer.replays,
             dropped_frames: answer.dropped_frames,
             timestamp: utc_timestamp_now(),
+            scale: drawn.map(|(scale, _)| scale),
+            visual_angle_deg: drawn.map(|(_, angle)| angle),
         };
         self.log.append(&row)?;
         self.next += 1;
@@ -424,8 +608,9 @@ mod tests {
         let e = Session::open(&d, &set, &results, "P01", &opts).unwrap_err().to_string();
         assert!(e.contains(&format!("pid {}", std::process::id())) && e.contains("session.lock"), "{e}");
         drop(s);
-        // A completed session makes the next run a new session.
-        let s = Session::open(&d, &set, &results, "P01", &opts).unwrap();
+        // A completed session makes the next run a new session, once confirmed.
+        let confirmed = SessionOptions { allow_new_session: true, ..opts.clone() };
+        let s = Session::open(&d, &set, &results, "P01", &confirmed).unwrap();
         assert_eq!((s.number, s.next), (2, 0));
     }
 
@@ -459,6 +644,202 @@ mod tests {
 
         let e = Session::open(&d, &set, &results, "Jane Doe", &SessionOptions::default()).unwrap_err().to_string();
         assert!(e.contains("participant code `Jane Doe`: use a pseudonymous code"), "{e}");
+    }
+
+    fn attribute(key: &str, options: &[&str]) -> study::experiment::Attribute {
+        study::experiment::Attribute {
+            key: key.into(),
+            question: format!("{key}?"),
+            options: options.iter().map(|o| (*o).to_owned()).collect(),
+        }
+    }
+
+    fn pairs(items: &[(&str, &str)]) -> Vec<(String, String)> {
+        items.iter().map(|(k, v)| ((*k).to_owned(), (*v).to_owned())).collect()
+    }
+
+    fn finish(s: &mut Session) {
+        while !s.is_finished() {
+            s.record(&Answer::default()).unwrap();
+        }
+    }
+
+    #[test]
+    fn a_complete_session_is_refused_without_confirmation_and_continued_with_it() {
+        let (dir, d, set) = setup("2afc");
+        let results = dir.path().join("results");
+        let opts = SessionOptions { seed: Some(5), ..Default::default() };
+        assert!(!opts.allow_new_session, "the default asks for confirmation");
+        // A first session needs no confirmation.
+        let mut s = Session::open(&d, &set, &results, "P04", &opts).unwrap();
+        assert_eq!(s.number, 1);
+        finish(&mut s);
+        drop(s);
+        let refused = Session::open(&d, &set, &results, "P04", &opts).unwrap_err();
+        let e = refused.to_string();
+        assert!(
+            matches!(&refused, RunnerError::SessionsComplete { participant, sessions, .. } if participant == "P04" && *sessions == vec![1])
+        );
+        assert!(
+            e.contains("P04: participant P04 has completed session 1 (on record: session-1.csv); starting a new session (session 2) must be confirmed"),
+            "{e}"
+        );
+        assert!(refused.is_bad_input());
+        // Nothing was written by the refusal, and the lock was released.
+        let folder = participant_dir(&results, &d.name, "P04");
+        assert_eq!(existing_sessions(&folder), vec![1]);
+        assert!(!lock_path(&folder).exists());
+
+        let confirmed = SessionOptions { allow_new_session: true, ..opts.clone() };
+        let mut s = Session::open(&d, &set, &results, "P04", &confirmed).unwrap();
+        assert_eq!((s.number, s.next, s.resumed), (2, 0, false));
+        finish(&mut s);
+        drop(s);
+        let e = Session::open(&d, &set, &results, "P04", &opts).unwrap_err().to_string();
+        assert!(
+            e.contains(
+                "has completed session 2 (on record: session-1.csv, session-2.csv); starting a new session (session 3)"
+            ),
+            "{e}"
+        );
+        // An incomplete last session resumes whatever the flag says.
+        let mut s = Session::open(&d, &set, &results, "P04", &confirmed).unwrap();
+        s.record(&Answer::default()).unwrap();
+        drop(s);
+        let s = Session::open(&d, &set, &results, "P04", &opts).unwrap();
+        assert_eq!((s.number, s.next, s.resumed), (3, 1, true));
+    }
+
+    #[test]
+    fn resuming_keeps_and_reports_the_recorded_attributes() {
+        let (dir, mut d, set) = setup("2afc");
+        d.attributes = vec![attribute("vision", &["normal", "corrected"]), attribute("cg_experience", &["yes", "no"])];
+        let results = dir.path().join("results");
+        // Given out of order and with a key the definition does not ask for.
+        let given = pairs(&[("cg_experience", "yes"), ("zz_note", "x"), ("vision", "corrected")]);
+        let opts = SessionOptions { seed: Some(2), attributes: given, ..Default::default() };
+        let mut s = Session::open(&d, &set, &results, "P05", &opts).unwrap();
+        let expected = pairs(&[("vision", "corrected"), ("cg_experience", "yes"), ("zz_note", "x")]);
+        assert_eq!(s.recorded_attributes, expected, "definition order, then the others");
+        s.record(&Answer::default()).unwrap();
+        let path = s.path().to_owned();
+        drop(s);
+        let other = SessionOptions { attributes: pairs(&[("vision", "normal"), ("cg_experience", "no")]), ..opts };
+        let s = Session::open(&d, &set, &results, "P05", &other).unwrap();
+        assert!(s.resumed);
+        assert_eq!(s.recorded_attributes, expected);
+        drop(s);
+        let log = SessionLog::read(&path).unwrap();
+        assert_eq!(
+            log.header.get("attributes"),
+            Some(r#"{"cg_experience":"yes","vision":"corrected","zz_note":"x"}"#),
+            "the header is never rewritten with the new answers"
+        );
+        let status = participant_status(&results, &d, "P05").unwrap();
+        assert_eq!(status.attributes, expected);
+
+        // A malformed `attributes` header refuses the resume, naming the file and line.
+        let text = std::fs::read_to_string(&path).unwrap();
+        let at = text.lines().position(|l| l.starts_with("# attributes:")).unwrap() + 1;
+        let broken = text.replace(r#""zz_note":"x"}"#, r#""zz_note":"x""#);
+        std::fs::write(&path, broken).unwrap();
+        let e = Session::open(&d, &set, &results, "P05", &SessionOptions::default()).unwrap_err().to_string();
+        assert!(e.contains(&format!("session-1.csv: line {at}: header `attributes` is not JSON")), "{e}");
+        let e = participant_status(&results, &d, "P05").unwrap_err().to_string();
+        assert!(e.contains(&format!("session-1.csv: line {at}: header `attributes` is not JSON")), "{e}");
+    }
+
+    #[test]
+    fn status_of_a_new_participant_and_of_partly_done_sessions() {
+        let (dir, mut d, set) = setup("match");
+        d.attributes = vec![attribute("cg_experience", &["yes", "no"])];
+        let results = dir.path().join("results");
+        let status = participant_status(&results, &d, "P06").unwrap();
+        assert!(status.sessions.is_empty() && status.attributes.is_empty());
+        assert!(status.last().is_none() && !status.new_session_needs_confirmation());
+        assert_eq!(status.next_session(), 1);
+        assert_eq!(status.dir, participant_dir(&results, &d.name, "P06"));
+        assert!(!status.dir.exists(), "reading the status creates nothing");
+        let e = participant_status(&results, &d, "Jane Doe").unwrap_err().to_string();
+        assert!(e.contains("participant code `Jane Doe`"), "{e}");
+
+        // One practice trial and 10 counted ones; session 1 complete, session 2 at 1 + 3.
+        let counted = schedule::build(&d, 0).iter().filter(|t| !t.practice).count();
+        assert_eq!(counted, 10);
+        let first = SessionOptions {
+            seed: Some(8),
+            attributes: pairs(&[("cg_experience", "no")]),
+            allow_new_session: true,
+            ..Default::default()
+        };
+        let mut s = Session::open(&d, &set, &results, "P06", &first).unwrap();
+        finish(&mut s);
+        drop(s);
+        let status = participant_status(&results, &d, "P06").unwrap();
+        assert!(status.new_session_needs_confirmation());
+        assert_eq!(status.next_session(), 2);
+        let second = SessionOptions { seed: Some(9), attributes: pairs(&[("cg_experience", "yes")]), ..first };
+        let mut s = Session::open(&d, &set, &results, "P06", &second).unwrap();
+        for _ in 0..4 {
+            s.record(&Answer::default()).unwrap();
+        }
+        let lock = lock_path(s.path().parent().unwrap());
+        assert!(lock.exists());
+        // Read while the session is open: no lock is needed, nothing is written.
+        let before = std::fs::read(s.path()).unwrap();
+        let status = participant_status(&results, &d, "P06").unwrap();
+        assert_eq!(std::fs::read(s.path()).unwrap(), before);
+        drop(s);
+        let folder = participant_dir(&results, &d.name, "P06");
+        assert_eq!(
+            status.sessions,
+            vec![
+                SessionStatus {
+                    number: 1,
+                    path: folder.join("session-1.csv"),
+                    counted_answered: 10,
+                    counted_total: 10,
+                    practice_answered: 1,
+                    completed: true,
+                },
+                SessionStatus {
+                    number: 2,
+                    path: folder.join("session-2.csv"),
+                    counted_answered: 3,
+                    counted_total: 10,
+                    practice_answered: 1,
+                    completed: false,
+                },
+            ]
+        );
+        assert_eq!(status.attributes, pairs(&[("cg_experience", "yes")]), "the most recent session's");
+        assert!(!status.new_session_needs_confirmation());
+        assert_eq!(status.next_session(), 2);
+
+        // A corrupt log is an error naming the file and line.
+        let path = folder.join("session-1.csv");
+        let text = std::fs::read_to_string(&path).unwrap().replacen("\n2,0,", "\n2,x,", 1);
+        std::fs::write(&path, text).unwrap();
+        let e = participant_status(&results, &d, "P06").unwrap_err().to_string();
+        assert!(e.contains("session-1.csv: line ") && e.contains("column `practice` is `x`"), "{e}");
+    }
+
+    #[test]
+    fn the_drawn_scale_and_angle_are_logged_per_trial() {
+        let (dir, d, set) = setup("2afc");
+        let mut s = Session::open(&d, &set, dir.path(), "P07", &SessionOptions { seed: Some(1), ..Default::default() })
+            .unwrap();
+        let drawn = Answer { scale: 2.44, visual_angle_deg: 8.9, ..Default::default() };
+        assert_eq!((s.record(&drawn).unwrap().scale, s.record(&Answer::default()).unwrap().scale), (Some(2.44), None));
+        for bad in [(-1.0, 8.9), (f64::NAN, 8.9), (2.0, 0.0), (2.0, f64::INFINITY)] {
+            let answer = Answer { scale: bad.0, visual_angle_deg: bad.1, ..Default::default() };
+            let e = s.record(&answer).unwrap_err().to_string();
+            assert!(e.contains("expected positive numbers (scale 0 when no window drew it)"), "{e}");
+        }
+        let rows: Vec<TrialRow> = SessionLog::read(s.path()).unwrap().rows.into_iter().map(|(_, r)| r).collect();
+        assert_eq!(rows.len(), 2, "a refused answer writes nothing");
+        assert_eq!((rows[0].scale, rows[0].visual_angle_deg), (Some(2.44), Some(8.9)));
+        assert_eq!((rows[1].scale, rows[1].visual_angle_deg), (None, None));
     }
 
     #[test]

@@ -243,7 +243,8 @@ impl ObserverModel {
         // Harder trials take longer and are replayed more often.
         let response_ms = (600.0 + 1500.0 * (-difficulty).exp() + 250.0 * crate::normal(&mut rng).abs()).round() as u64;
         let replays = u32::from(crate::unit_f64(&mut rng) < 0.4 * (-2.0 * difficulty).exp());
-        Answer { slot, response_ms, replays, dropped_frames: 0, frames: Vec::new() }
+        // No window draws a simulated trial: scale 0 leaves the row's scale columns empty.
+        Answer { slot, response_ms, replays, dropped_frames: 0, frames: Vec::new(), scale: 0.0, visual_angle_deg: 0.0 }
     }
 }
 
@@ -305,8 +306,13 @@ pub fn run_session_with(
     let set = StimulusSet::open_for(set_dir, definition)?;
     let display =
         serde_json::json!({ "mode": "simulated", "model": format!("{model:?}").chars().take(120).collect::<String>() });
-    let session_options =
-        SessionOptions { seed: Some(seed), display: Some(display), attributes: options.attributes.clone() };
+    // A simulation continues with a new session after a complete one, as it always has.
+    let session_options = SessionOptions {
+        seed: Some(seed),
+        display: Some(display),
+        attributes: options.attributes.clone(),
+        allow_new_session: true,
+    };
     let mut session = Session::open(definition, &set, results_dir, participant, &session_options)?;
     let model = &model.prepare(&set, &session.schedule)?;
     model.check(&session.schedule)?;
@@ -337,7 +343,7 @@ pub fn run_session_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use study::response::SessionLog;
+    use study::response::{SessionLog, TrialRow};
 
     #[test]
     fn models_parse_and_bad_ones_are_named() {
@@ -405,7 +411,7 @@ mod tests {
                 .unwrap()
                 .rows
                 .iter()
-                .map(|(_, r)| r.to_line().rsplit_once(',').unwrap().0.to_owned())
+                .map(|(_, r)| TrialRow { timestamp: String::new(), ..r.clone() }.to_line())
                 .collect()
         };
         assert_eq!(strip(&whole), strip(&r.path));

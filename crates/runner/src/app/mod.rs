@@ -207,7 +207,8 @@ impl RunnerApp {
             .map(|(a, sel)| (a.key.clone(), a.options[sel.unwrap_or(0)].clone()))
             .collect();
         let display = self.config.display_json(&self.refresh());
-        let options = SessionOptions { seed: self.config.seed, display: Some(display), attributes };
+        let options =
+            SessionOptions { seed: self.config.seed, display: Some(display), attributes, allow_new_session: false };
         match Session::open(
             &self.config.definition,
             &self.config.set,
@@ -250,6 +251,8 @@ impl RunnerApp {
             replays: p.replays,
             dropped_frames: playback.dropped,
             frames: playback.presented.clone(),
+            scale: self.calibration.as_ref().map_or(0.0, |c| c.scale),
+            visual_angle_deg: self.calibration.as_ref().map_or(0.0, |c| c.angle_deg),
         };
         let Some(session) = &mut self.session else { return };
         match session.record(&answer) {
