@@ -15,6 +15,7 @@
 //! - [`gpu`]: frames onto the GPU as textures; the anaglyph composed there by a kernel.
 //! - [`calibration`]: scaling a stimulus to the visual angle the definition asks for.
 //! - [`simulate`]: simulated observers running whole sessions headlessly.
+//! - [`summary`]: the experimenter's summary of what a window recorded.
 //! - [`flip_observer`]: the image-computable observer's FLIP distances between sequences.
 //! - [`app`]: the participant's window.
 //! - [`bench`]: measurements for `blurlab bench playback`.
@@ -30,6 +31,7 @@ pub mod schedule;
 pub mod session;
 pub mod simulate;
 pub mod stimuli;
+pub mod summary;
 
 use std::path::PathBuf;
 

@@ -1,5 +1,7 @@
 //! `blurlab run EXPERIMENT --stimuli DIR --participant CODE`: runs (or resumes) a
 //! participant's session in the runner's window, or headlessly with `--simulate MODEL`.
+//! After a window closes, the experimenter's summary (`runner::summary`) is printed: trials
+//! answered, replays, late frames and any trial shown off-calibration.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -165,12 +167,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let app = runner::app::run_window(config, args.fullscreen).map_err(runner_error).context("running the window")?;
     match app.session() {
-        Some(s) => println!(
-            "{}: {} trials answered in this window; {}",
-            s.path().display(),
-            app.written.len(),
-            if s.is_finished() { "session complete" } else { "session incomplete (run again to resume)" }
-        ),
+        Some(s) => {
+            println!(
+                "{}: {} trials answered in this window; {}",
+                s.path().display(),
+                app.written.len(),
+                if s.is_finished() { "session complete" } else { "session incomplete (run again to resume)" }
+            );
+            print!("{}", runner::summary::SessionSummary::new(&app.written, &calibration));
+        }
         None => println!("no session was started"),
     }
     Ok(())
