@@ -300,6 +300,12 @@ fn scripted_participant_2afc_practice_replay_quit_and_resume() {
         assert_eq!(row.shown, trial.shown);
         assert_eq!(row.dropped_frames, 0, "paced at the harness's 60 Hz steps");
         assert_eq!(row.correct, None);
+        // Each row records the scale and angle of the trial (the calibrated ones for now).
+        assert_eq!(
+            (row.scale, row.visual_angle_deg),
+            (display["scale"].as_f64(), display["visual_angle_deg"].as_f64())
+        );
+        assert!(row.scale.is_some_and(|s| s > 0.0), "{display}");
     }
     // Every presented frame was logged: 3 frames per sequence, 2 sequences, replays doubled.
     let frames = std::fs::read_to_string(path.with_extension("frames.tsv")).unwrap();
