@@ -79,6 +79,10 @@ pub struct PresentationToml {
     pub replay: Option<bool>,
     /// `loops`.
     pub loops: Option<u32>,
+    /// `ready_ms`.
+    pub ready_ms: Option<u32>,
+    /// `break_every`.
+    pub break_every: Option<u32>,
 }
 
 /// One `[[attributes]]` table.
@@ -121,7 +125,13 @@ impl ExperimentToml {
                 }],
             }),
             practice: vec![pair("M2-S2-T1-A1", "M2-S2-T3-A5")],
-            presentation: Some(PresentationToml { gap_ms: Some(300), replay: None, loops: Some(2) }),
+            presentation: Some(PresentationToml {
+                gap_ms: Some(300),
+                replay: None,
+                loops: Some(2),
+                ready_ms: None,
+                break_every: None,
+            }),
             keys: Some(["ArrowLeft".into(), "ArrowRight".into()]),
             attributes: vec![AttributeToml {
                 key: "cg_experience".into(),
@@ -199,6 +209,12 @@ impl fmt::Display for ExperimentToml {
             }
             if let Some(loops) = p.loops {
                 writeln!(f, "loops = {loops}")?;
+            }
+            if let Some(ready) = p.ready_ms {
+                writeln!(f, "ready_ms = {ready}")?;
+            }
+            if let Some(every) = p.break_every {
+                writeln!(f, "break_every = {every}")?;
             }
         }
         if let Some([first, second]) = &self.keys {

@@ -120,6 +120,9 @@ pub struct PracticeTrial {
     pub reference: Option<StimulusId>,
 }
 
+/// The participant-facing title of a definition that gives none.
+pub const DEFAULT_PARTICIPANT_TITLE: &str = "Video quality study";
+
 /// How a trial is played.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Presentation {
@@ -133,6 +136,12 @@ pub struct Presentation {
     pub visual_angle_deg: f64,
     /// A break after every this many counted trials (0: no breaks).
     pub break_every: u32,
+    /// How long the ready screen (a fixation mark on the neutral field) is shown before each
+    /// trial, in milliseconds (`ready_ms`, default 800; 0: no ready screen).
+    pub ready_ms: u32,
+    /// Whether the ready screen waits for the participant to press Space or Enter (after
+    /// `ready_ms`) instead of moving on by itself.
+    pub ready_press: bool,
 }
 
 /// Response keys (egui key names: `A`-`Z`, `0`-`9`, `ArrowLeft`, `ArrowRight`, `Space`, ...).
@@ -166,8 +175,11 @@ pub struct ExperimentDefinition {
     pub sha256: String,
     /// Name, e.g. `mono-3-interactions` (results go under `results/NAME/`).
     pub name: String,
-    /// Title shown to the experimenter.
+    /// Title shown to the experimenter (may name design codes).
     pub title: String,
+    /// Title shown to participants (`participant_title`; [`DEFAULT_PARTICIPANT_TITLE`] when
+    /// not given): never design codes.
+    pub participant_title: String,
     /// `2afc` or `match`.
     pub task: Task,
     /// The question shown with every trial.

@@ -7,8 +7,8 @@ use std::path::Path;
 
 use super::spec::RawDefinition;
 use super::{
-    Attribute, Briefing, DisplayMode, EXPERIMENT_FORMAT, Example, ExperimentDefinition, ExperimentError, Keys,
-    MAX_LOOPS, MAX_REPEATS, MAX_TRIALS, PracticeTrial, Presentation,
+    Attribute, Briefing, DEFAULT_PARTICIPANT_TITLE, DisplayMode, EXPERIMENT_FORMAT, Example, ExperimentDefinition,
+    ExperimentError, Keys, MAX_LOOPS, MAX_REPEATS, MAX_TRIALS, PracticeTrial, Presentation,
 };
 use crate::fsio::sha256_hex;
 use crate::ids::MethodTag;
@@ -225,12 +225,17 @@ impl ExperimentDefinition {
         if p.gap_ms > 10_000 {
             return Err(bad("presentation", None, "gap_ms", format!("{} ms is longer than 10 s", p.gap_ms)));
         }
+        if p.ready_ms > 10_000 {
+            return Err(bad("presentation", None, "ready_ms", format!("{} ms is longer than 10 s", p.ready_ms)));
+        }
         let presentation = Presentation {
             gap_ms: p.gap_ms,
             replay: p.replay,
             loops: p.loops,
             visual_angle_deg: p.visual_angle_deg,
             break_every: p.break_every,
+            ready_ms: p.ready_ms,
+            ready_press: p.ready_press,
         };
 
         let display_text = raw.display.unwrap_or_default().mode.unwrap_or_else(|| match view {
@@ -280,6 +285,7 @@ impl ExperimentDefinition {
             path: path.to_owned(),
             sha256: sha256_hex(text.as_bytes()),
             name: raw.name,
+            participant_title: raw.participant_title.unwrap_or_else(|| DEFAULT_PARTICIPANT_TITLE.to_owned()),
             title: raw.title.unwrap_or_default(),
             task,
             question: raw.question,

@@ -28,6 +28,7 @@ pub(super) struct RawDefinition {
     pub(super) format: String,
     pub(super) name: String,
     pub(super) title: Option<String>,
+    pub(super) participant_title: Option<String>,
     pub(super) task: String,
     pub(super) question: String,
     pub(super) view: String,
@@ -124,6 +125,14 @@ pub(super) struct RawPresentation {
     pub(super) visual_angle_deg: f64,
     #[serde(default)]
     pub(super) break_every: u32,
+    #[serde(default = "default_ready")]
+    pub(super) ready_ms: u32,
+    #[serde(default)]
+    pub(super) ready_press: bool,
+}
+
+fn default_ready() -> u32 {
+    800
 }
 
 impl Default for RawPresentation {
@@ -134,6 +143,8 @@ impl Default for RawPresentation {
             loops: 1,
             visual_angle_deg: default_angle(),
             break_every: 0,
+            ready_ms: default_ready(),
+            ready_press: false,
         }
     }
 }
