@@ -17,6 +17,7 @@
 //! - [`simulate`]: simulated observers running whole sessions headlessly.
 //! - [`summary`]: the experimenter's summary of what a window recorded.
 //! - [`flip_observer`]: the image-computable observer's FLIP distances between sequences.
+//! - [`views`]: where each eye's picture of the participant's view lies in the window.
 //! - [`app`]: the participant's window.
 //! - [`bench`]: measurements for `blurlab bench playback`.
 
@@ -32,6 +33,7 @@ pub mod session;
 pub mod simulate;
 pub mod stimuli;
 pub mod summary;
+pub mod views;
 
 use std::path::PathBuf;
 

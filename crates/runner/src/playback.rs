@@ -203,10 +203,18 @@ pub struct RefreshEstimate {
 
 /// Fewest intervals [`estimate_refresh`] accepts.
 pub const MIN_REFRESH_INTERVALS: usize = 20;
-/// Refresh rates taken as a display's (Hz); a measurement outside is not a refresh.
-pub const PLAUSIBLE_REFRESH_HZ: std::ops::RangeInclusive<f64> = 23.0..=500.0;
-/// Largest [`RefreshEstimate::spread`] of a window locked to the display's refresh.
-pub const MAX_REFRESH_SPREAD: f64 = 0.1;
+/// Refresh rates displays run at (Hz): film, PAL and NTSC rates, office and gaming monitors,
+/// 3D displays and VR headsets. A measurement is a display refresh only near one of them.
+pub const COMMON_REFRESH_HZ: [f64; 18] = [
+    24.0, 25.0, 30.0, 48.0, 50.0, 60.0, 72.0, 75.0, 85.0, 90.0, 100.0, 120.0, 144.0, 165.0, 180.0, 200.0, 240.0, 360.0,
+];
+/// How far (relative) a measured rate may be from a [`COMMON_REFRESH_HZ`] rate: 59.94 Hz
+/// (NTSC-derived) and 143.9 Hz panels pass, a free-running window at 86-131 Hz does not.
+pub const REFRESH_RATE_TOLERANCE: f64 = 0.015;
+/// Largest [`RefreshEstimate::spread`] of a window locked to the display's refresh: the
+/// intervals of a synchronised window differ by far less than 2 % (scheduling jitter moves
+/// the times a present is recorded, not the refresh), an unsynchronised one's by 5 % and more.
+pub const MAX_REFRESH_SPREAD: f64 = 0.02;
 
 /// Estimates the refresh interval from present times (seconds, increasing) as the median of
 /// the frame-to-frame intervals, so a few stalls (a missed refresh doubles an interval) or
@@ -230,9 +238,12 @@ impl RefreshEstimate {
         1000.0 / self.interval_ms
     }
 
-    /// Whether it looks like a display refresh: regular and in [`PLAUSIBLE_REFRESH_HZ`].
+    /// Whether it looks like a display refresh: regular (spread at most
+    /// [`MAX_REFRESH_SPREAD`]) and within [`REFRESH_RATE_TOLERANCE`] of a common rate.
     pub fn is_display_refresh(&self) -> bool {
-        PLAUSIBLE_REFRESH_HZ.contains(&self.hz()) && self.spread <= MAX_REFRESH_SPREAD
+        let hz = self.hz();
+        self.spread <= MAX_REFRESH_SPREAD
+            && COMMON_REFRESH_HZ.iter().any(|r| (hz - r).abs() <= REFRESH_RATE_TOLERANCE * r)
     }
 }
 
@@ -351,5 +362,21 @@ mod tests {
         assert!(!e.is_display_refresh(), "{e:?}");
         let regular_slow: Vec<f64> = (0..40).map(|i| f64::from(i) * 0.125).collect();
         assert!(!estimate_refresh(&regular_slow).unwrap().is_display_refresh());
+    }
+
+    #[test]
+    fn an_unsynchronised_window_is_not_taken_for_a_display_refresh() {
+        let of = |interval_ms: f64, spread: f64| RefreshEstimate { interval_ms, intervals: 60, spread };
+        // Regular, but at rates no display runs at (Xvfb measured 86-131 Hz; 86 Hz would pass
+        // as an 85 Hz monitor, and is caught by its spread).
+        for hz in [95.0, 110.0, 131.0, 40.0] {
+            assert!(!of(1000.0 / hz, 0.0).is_display_refresh(), "{hz}");
+        }
+        // A common rate with the 5.4 % spread of a free-running window.
+        assert!(!of(1000.0 / 60.0, 0.054).is_display_refresh());
+        // Synchronised displays, NTSC-derived rates included.
+        for hz in [59.94, 60.0, 75.0, 119.88, 143.86, 144.0, 240.0] {
+            assert!(of(1000.0 / hz, 0.005).is_display_refresh(), "{hz}");
+        }
     }
 }

@@ -92,7 +92,13 @@ fn definition_of(dir: &Path, task: &str, view: &str) -> ExperimentDefinition {
             }],
         }),
         practice: vec![pair(&stereo("M2-S2-T1-A1"), &stereo("M2-S2-T5-A5"))],
-        presentation: Some(PresentationToml { gap_ms: Some(100), replay: Some(true), loops: None }),
+        presentation: Some(PresentationToml {
+            gap_ms: Some(100),
+            replay: Some(true),
+            loops: None,
+            ready_ms: Some(100),
+            break_every: Some(2),
+        }),
         keys: None,
         attributes: vec![AttributeToml {
             question: "Experience in computer graphics?".into(),
@@ -184,6 +190,30 @@ fn start(h: &mut Harness<'static, RunnerApp>, code: &str) {
     h.run_steps(2);
     h.get_by_label("no").click();
     h.run_steps(2);
+    // The experimenter must confirm the ruler check.
+    h.get_by_label("Start").click();
+    h.run_steps(2);
+    assert!(h.state().message().unwrap().contains("measure the bar with a ruler"), "{:?}", h.state().message());
+    assert_eq!(h.state().screen(), "start");
+    h.get_by_label_contains("I measured this bar with a ruler").click();
+    h.run_steps(2);
+    h.get_by_label("Start").click();
+    h.run_steps(2);
+}
+
+/// The start screen of a participant whose session resumes: the recorded answers are shown,
+/// not asked again, and the experimenter sees what is on record.
+fn start_resuming(h: &mut Harness<'static, RunnerApp>, code: &str, on_record: &str) {
+    h.get_by_role(Role::TextInput).focus();
+    h.step();
+    h.get_by_role(Role::TextInput).type_text(code);
+    h.run_steps(2);
+    assert!(h.query_by_label("Welcome back. Your answers from last time:").is_some());
+    assert!(h.query_by_label("Experience in computer graphics? no").is_some());
+    assert!(h.query_by_label("yes").is_none(), "the recorded question is asked again");
+    assert!(h.query_by_label_contains(on_record).is_some(), "the experimenter is not shown `{on_record}`");
+    h.get_by_label_contains("I measured this bar with a ruler").click();
+    h.run_steps(2);
     h.get_by_label("Start").click();
     h.run_steps(2);
 }
@@ -246,6 +276,11 @@ fn scripted_participant_2afc_practice_replay_quit_and_resume() {
     until(&mut h, "answer");
     h.key_press(Key::Num1);
     h.step();
+    // The end of practice is announced; Space begins the counted trials.
+    until(&mut h, "practice-over");
+    assert!(h.query_by_label("Practice is over").is_some());
+    h.key_press(Key::Space);
+    h.step();
 
     // Trial 1: replay by button, then answer sequence 2 by button.
     until(&mut h, "answer");
@@ -262,6 +297,12 @@ fn scripted_participant_2afc_practice_replay_quit_and_resume() {
     h.step();
     until(&mut h, "answer");
     h.get_by_label("Sequence 1 [1]").click();
+    h.step();
+
+    // A break after two counted trials (break_every = 2); Space continues.
+    until(&mut h, "break");
+    assert!(h.query_by_label_contains("2 of 3 trials done").is_some());
+    h.key_press(Key::Space);
     h.step();
 
     // Trial 3 on screen: Escape asks, Continue resumes, Escape + Quit closes.
@@ -312,23 +353,59 @@ fn scripted_participant_2afc_practice_replay_quit_and_resume() {
     assert_eq!(frames.lines().count(), 1 + 6 + 12 + 12);
 
     // Resume: same code, continues at trial 3 in the same order, then runs to the end.
-    let mut h = harness(cfg);
-    start(&mut h, "P07");
-    assert!(h.state().message().unwrap().contains("Resuming session 1 at trial 4"), "{:?}", h.state().message());
+    let mut h = harness(cfg.clone());
+    start_resuming(&mut h, "P07", "Session 1: 2 of 3 trials answered, 1 practice (incomplete)");
+    // The resume notice and the trial screen count the same way (counted trials from 1).
+    let note = h.state().message().unwrap().to_owned();
+    assert!(note.contains("Resuming session 1: 2 of 3 trials answered, next is trial 3 of 3."), "{note}");
     assert_eq!(h.state().session().unwrap().next, 3);
-    h.get_by_label("Begin").click();
+    h.key_press(Key::Space);
+    h.step();
+    until(&mut h, "presenting");
+    assert!(h.query_by_label("Trial 3 of 3").is_some());
     while h.state().screen() != "done" {
         until(&mut h, "answer");
         h.key_press(Key::Num2);
         h.step();
         h.step();
     }
+    // Escape on the end screen closes without asking: the session is complete.
+    h.key_press(Key::Escape);
+    h.step();
+    assert!(!h.state().confirming_quit());
+    assert_eq!(h.state().screen(), "closed");
     let log = SessionLog::read(&path).unwrap();
     assert!(log.completed);
     let r = rows(&path);
     assert_eq!(r.len(), schedule.len());
     assert!(r.iter().zip(&schedule).all(|(row, t)| row.shown == t.shown && row.trial == t.index));
     assert!(r[3..].iter().all(|row| row.choice == row.shown[1]));
+
+    // Again with the same code: the session is complete, so a new one starts only when the
+    // experimenter confirms it.
+    drop(h);
+    let mut h = harness(cfg);
+    h.get_by_role(Role::TextInput).focus();
+    h.step();
+    h.get_by_role(Role::TextInput).type_text("P07");
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Session 1: 3 of 3 trials answered, 1 practice (complete)").is_some());
+    h.get_by_label_contains("I measured this bar with a ruler").click();
+    h.run_steps(2);
+    h.get_by_label("Start").click();
+    h.run_steps(2);
+    assert_eq!(h.state().screen(), "start");
+    assert!(h.state().message().unwrap().contains("must be confirmed"), "{:?}", h.state().message());
+    assert!(!path.with_file_name("session-2.csv").exists());
+    h.get_by_label("Start a new session for this participant").click();
+    h.run_steps(2);
+    // A new session starts from the answers on record (shown and changeable): no question
+    // is left unanswered.
+    assert!(h.query_by_label("yes").is_some());
+    h.get_by_label("Start").click();
+    h.run_steps(2);
+    assert_eq!(h.state().screen(), "briefing", "{:?}", h.state().message());
+    assert!(h.state().session().unwrap().path().ends_with("P07/session-2.csv"));
 }
 
 #[test]
@@ -341,6 +418,9 @@ fn scripted_participant_matching_by_key_and_button() {
     assert!(h.query_by_label("Reference").is_some() && h.query_by_label("Candidate B").is_some());
     until(&mut h, "answer");
     h.get_by_label("Candidate B [2]").click();
+    h.step();
+    until(&mut h, "practice-over");
+    h.get_by_label("Begin the experiment").click();
     h.step();
     until(&mut h, "answer");
     h.key_press(Key::Num1);
@@ -378,6 +458,9 @@ fn closing_the_window_during_a_session_asks_first() {
     h.get_by_label("Begin practice").click();
     until(&mut h, "answer");
     h.key_press(Key::Num1);
+    h.step();
+    until(&mut h, "practice-over");
+    h.key_press(Key::Enter);
     h.step();
     // During a trial the close is cancelled and the quit question shows; Quit then closes.
     until(&mut h, "presenting");
@@ -534,4 +617,241 @@ fn row_interleave_without_wgpu_warns_when_the_scale_is_not_one() {
     h.key_press(Key::Num1);
     h.step();
     assert_eq!(rows(h.state().session().unwrap().path()).len(), 1);
+}
+
+/// Steps a 2AFC or matching practice trial of `task` in `mode` until a stimulus is on screen.
+fn presenting_in(dir: &Path, task: &str, view: &str, mode: DisplayMode, size: [f32; 2]) -> Harness<'static, RunnerApp> {
+    let mut cfg = config_of(definition_of(dir, task, view), dir, 64, 36);
+    cfg.display = mode;
+    let mut h = harness_sized(cfg, size);
+    start(&mut h, "L01");
+    h.key_press(Key::Space);
+    h.step();
+    until(&mut h, "presenting");
+    while h.state().stimulus_rects().is_empty() {
+        h.step();
+    }
+    h
+}
+
+#[test]
+fn the_stimulus_is_centred_in_the_window_at_every_size() {
+    // Calibrated 64x36 stimuli are drawn at 9.93x (635 px for 14.4 degrees): 1000x700 is too
+    // small and they shrink, still centred.
+    for size in [[1400.0, 1100.0], [1920.0, 1080.0], [1000.0, 700.0], [1333.0, 901.0]] {
+        let dir = tempfile::tempdir().unwrap();
+        let h = presenting_in(dir.path(), "2afc", "mono", DisplayMode::Mono, size);
+        let rects = h.state().stimulus_rects();
+        assert_eq!(rects.len(), 1);
+        let centre = egui::pos2(size[0] / 2.0, size[1] / 2.0);
+        assert!((rects[0].center() - centre).length() <= 1.0, "{size:?}: {:?}", rects[0]);
+        let h = presenting_in(dir.path(), "match", "mono", DisplayMode::Mono, size);
+        // The reference, playing first, is centred horizontally above its candidates.
+        let r = h.state().stimulus_rects()[0];
+        assert!((r.center().x - centre.x).abs() <= 1.0 && r.center().y < centre.y, "{size:?}: {r:?}");
+    }
+}
+
+/// The shapes drawn on screen outside the stimuli (text, buttons, marks), as rectangles.
+fn ui_shapes(h: &Harness<'static, RunnerApp>) -> Vec<egui::Rect> {
+    let window = h.ctx.content_rect();
+    h.output()
+        .shapes
+        .iter()
+        .filter(|s| !matches!(s.shape, egui::Shape::Callback(_)))
+        .map(|s| s.shape.visual_bounding_rect())
+        .filter(|r| r.is_positive() && r.area() < 0.5 * window.area())
+        .collect()
+}
+
+#[test]
+fn side_by_side_and_top_bottom_show_each_eye_its_half_with_the_same_text() {
+    for mode in [DisplayMode::SbsFull, DisplayMode::SbsHalf, DisplayMode::TopBottom] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut h = presenting_in(dir.path(), "2afc", "stereo", mode, [1920.0, 1080.0]);
+        let views = h.state().views().clone();
+        assert_eq!(views.eyes.len(), 2, "{mode}");
+        // The stimulus: one rectangle per eye, centred in the eye's half of the screen.
+        let rects = h.state().stimulus_rects().to_vec();
+        assert_eq!(rects.len(), 2, "{mode}");
+        for (eye, r) in views.eyes.iter().zip(&rects) {
+            assert!((r.center() - eye.region.center()).length() <= 1.0, "{mode}: {r:?} in {:?}", eye.region);
+        }
+        until(&mut h, "answer");
+        // Everything else is drawn twice, at the same place in each eye's half.
+        let shapes = ui_shapes(&h);
+        let offset = views.eyes[1].region.min - views.eyes[0].region.min;
+        let key = |r: &egui::Rect| ((r.min.x * 4.0).round() as i64, (r.min.y * 4.0).round() as i64);
+        let mut left: Vec<_> = shapes
+            .iter()
+            .filter(|r| views.eyes[0].region.contains_rect(**r))
+            .map(|r| key(&r.translate(offset)))
+            .collect();
+        let mut right: Vec<_> = shapes.iter().filter(|r| views.eyes[1].region.contains_rect(**r)).map(key).collect();
+        left.sort_unstable();
+        right.sort_unstable();
+        assert!(left.len() >= 8, "{mode}: only {} shapes in the left eye's half", left.len());
+        assert_eq!(left, right, "{mode}: the eyes' halves differ");
+        // Nothing is drawn across the seam.
+        let straddling = shapes.iter().filter(|r| !views.eyes.iter().any(|e| e.region.contains_rect(**r))).count();
+        assert_eq!(straddling, 0, "{mode}");
+        // The answer buttons work by pointer on either copy: the right eye's copy of
+        // "Sequence 2 [2]" maps back to the button.
+        let button = h.get_by_label("Sequence 2 [2]").rect();
+        let on_right = views.to_window(1, button.center());
+        let mut input = egui::RawInput::default();
+        input.events.push(egui::Event::PointerMoved(on_right));
+        views.map_input(&mut input);
+        assert_eq!(input.events[0], egui::Event::PointerMoved(button.center()), "{mode}");
+        h.key_press(Key::Num2);
+        h.step();
+        assert_eq!(rows(h.state().session().unwrap().path()).len(), 1);
+    }
+}
+
+#[test]
+fn the_start_screen_checks_the_screen_size_the_ruler_and_the_refresh() {
+    let dir = tempfile::tempdir().unwrap();
+    // A window system reporting a 1920-pixel screen while the calibration assumes 1600.
+    let mut h = harness(config(dir.path(), "2afc"));
+    h.input_mut().viewports.get_mut(&egui::ViewportId::ROOT).unwrap().monitor_size = Some(egui::vec2(1920.0, 1080.0));
+    h.run_steps(2);
+    assert!(
+        h.query_by_label_contains("reports a screen 1920 px wide, but the calibration assumes 1600 px").is_some(),
+        "no warning about the screen's width"
+    );
+    // Participants see the participant-facing title; the design's name is for the experimenter.
+    assert!(h.query_by_label(study::experiment::DEFAULT_PARTICIPANT_TITLE).is_some());
+    drop(h);
+    // A window redrawing at 87 Hz (no display runs at that) is not a display refresh: Start
+    // stays disabled without --refresh-hz.
+    let cfg = config(dir.path(), "2afc");
+    let mut h = Harness::builder()
+        .with_size([1400.0, 1100.0])
+        .with_step_dt(1.0 / 87.0)
+        .build_eframe(move |_cc| RunnerApp::new(cfg.clone()));
+    h.run_steps(runner::app::REFRESH_CALIBRATION_FRAMES + 2);
+    assert!(h.state().refresh_unreliable() && !h.state().ready_to_start());
+    assert!(h.query_by_label_contains("COULD NOT BE MEASURED RELIABLY").is_some());
+    assert!(h.query_by_label_contains("--refresh-hz HZ").is_some());
+    // A given rate lets the session start.
+    let mut cfg = config(dir.path(), "2afc");
+    cfg.refresh_hz = Some(60.0);
+    let mut h = Harness::builder()
+        .with_size([1400.0, 1100.0])
+        .with_step_dt(1.0 / 87.0)
+        .build_eframe(move |_cc| RunnerApp::new(cfg.clone()));
+    h.run_steps(runner::app::REFRESH_CALIBRATION_FRAMES + 2);
+    assert!(h.state().ready_to_start() && !h.state().refresh_unreliable());
+    // A code given on the command line is shown, not editable.
+    let mut cfg = config(dir.path(), "2afc");
+    cfg.participant = Some("P42".into());
+    let h = harness(cfg);
+    assert!(h.query_by_role(Role::TextInput).is_none());
+    assert!(h.query_by_label("Participant code: P42").is_some());
+}
+
+#[test]
+fn the_ready_screen_shows_a_fixation_mark_for_its_time_before_each_trial() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut h = harness(config(dir.path(), "2afc"));
+    start(&mut h, "F01");
+    h.key_press(Key::Enter);
+    h.step();
+    // ready_ms = 100: at 60 steps a second, 6 or 7 steps before the presentation starts.
+    let mut waiting = 0;
+    while matches!(h.state().screen(), "loading" | "ready") {
+        waiting += 1;
+        assert!(h.state().stimulus_rects().is_empty());
+        h.step();
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    assert_eq!(h.state().screen(), "presenting");
+    assert!(waiting >= 6, "the ready screen lasted {waiting} steps");
+}
+
+/// With a wgpu device, each eye's half of the screen shows exactly that eye's image in the
+/// side-by-side and top-bottom modes (the composition on the GPU, clipped to the eye's
+/// region): every pixel of the left eye's stimulus rectangle is the left eye's picture of
+/// one frame, scaled by nearest sampling, and likewise on the right.
+#[test]
+fn each_eye_region_shows_its_own_eye_on_the_gpu() {
+    if gpu::test_context("each_eye_region_shows_its_own_eye_on_the_gpu").is_none() {
+        return;
+    }
+    exit_guard::arm();
+    for mode in [DisplayMode::SbsFull, DisplayMode::SbsHalf, DisplayMode::TopBottom] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut cfg = config_of(definition_of(dir.path(), "2afc", "stereo"), dir.path(), 64, 36);
+        cfg.display = mode;
+        // 640 px for 14.4 degrees: an integer scale of 10, drawn with a nearest sampler.
+        assert_eq!(cfg.calibration().unwrap().scale, 10.0);
+        let set = cfg.set.clone();
+        let mut h = Harness::builder()
+            .with_size([1920.0, 1080.0])
+            .with_step_dt(1.0 / 60.0)
+            .wgpu()
+            .build_eframe(move |_cc| RunnerApp::new(cfg));
+        h.run_steps(runner::app::REFRESH_CALIBRATION_FRAMES);
+        start(&mut h, "G01");
+        h.key_press(Key::Space);
+        h.step();
+        until(&mut h, "presenting");
+        while h.state().stimulus_rects().is_empty() {
+            h.step();
+        }
+        // The harness draws the pointer where the last click was: move it off the stimuli.
+        h.input_mut().events.push(egui::Event::PointerMoved(egui::pos2(2.0, 2.0)));
+        h.step();
+        let rects = h.state().stimulus_rects().to_vec();
+        let image = h.render().unwrap();
+        exit_guard::arm();
+        // The display images of every frame of the trial's stimuli, as the CPU makes them.
+        let trial = h.state().session().unwrap().current().unwrap().clone();
+        let mut displays = Vec::new();
+        for id in &trial.shown {
+            let seq = set.sequence(id);
+            for path in seq.frame_paths() {
+                let frame = decode_frame(&path, seq.manifest.width, seq.manifest.height).unwrap();
+                displays.push(transform(mode, View::Stereo, frame));
+            }
+        }
+        for (eye, rect) in rects.iter().enumerate() {
+            let (x0, y0) = (rect.min.x.round() as u32, rect.min.y.round() as u32);
+            let (w, hgt) = (rect.width().round() as u32, rect.height().round() as u32);
+            // The source pixel of eye `eye` under screen pixel (i, j) of its rectangle.
+            let source = |d: &runner::display::Rgba8, i: u32, j: u32| match mode {
+                DisplayMode::SbsFull => d.get(eye as u32 * 64 + i / 10, j / 10),
+                DisplayMode::SbsHalf => d.get(eye as u32 * 32 + i / 10, j / 10),
+                _ => d.get(i / 10, eye as u32 * 18 + j / 10),
+            };
+            let matches = |d: &runner::display::Rgba8| {
+                (0..hgt).step_by(3).all(|j| {
+                    (0..w).step_by(3).all(|i| {
+                        let got = image.get_pixel(x0 + i, y0 + j).0;
+                        let want = source(d, i, j);
+                        (0..3).all(|c| got[c].abs_diff(want[c]) <= 1)
+                    })
+                })
+            };
+            assert!(displays.iter().any(matches), "{mode}: eye {eye}'s region {rect:?} shows none of its frames");
+            // The other eye's picture (the bar 2 pixels away) is not what this eye sees.
+            let other = |d: &runner::display::Rgba8| {
+                let mut swapped = d.clone();
+                let (ew, eh) = (d.width, d.height);
+                for y in 0..eh {
+                    for x in 0..ew {
+                        let (sx, sy) = match mode {
+                            DisplayMode::TopBottom => (x, (y + eh / 2) % eh),
+                            _ => ((x + ew / 2) % ew, y),
+                        };
+                        swapped.set(x, y, d.get(sx, sy));
+                    }
+                }
+                swapped
+            };
+            assert!(!displays.iter().map(other).any(|d| matches(&d)), "{mode}: eye {eye} shows the other eye");
+        }
+        drop(h);
+    }
 }

@@ -128,10 +128,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             eprintln!("warning: {w}");
         }
         println!(
-            "{}: session {}, {} trials answered{}{}",
+            "{}: session {}, {} answered{}{}",
             report.path.display(),
             report.session,
-            report.answered,
+            trials(report.answered),
             if report.resumed { format!(" (resumed at trial {})", report.started_at) } else { String::new() },
             if report.completed { ", complete" } else { ", incomplete (run again to resume)" }
         );
@@ -142,14 +142,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         return Err(BadInput("no display (DISPLAY and WAYLAND_DISPLAY are unset): run in a desktop session, or use --simulate MODEL --seed S".into()).into());
     }
     // Refuse at once when another process runs this participant's session (the window takes
-    // the lock itself when the session starts).
-    drop(
-        runner::session::lock_participant(
-            &runner::session::participant_dir(&args.results, &definition.name, &args.participant),
-            &args.participant,
-        )
-        .map_err(runner_error)?,
-    );
+    // the lock itself when the session starts). A participant without a folder has no session
+    // to hold: nothing is created before the session starts, so a window that fails to open
+    // leaves no empty folders behind.
+    let participant_dir = runner::session::participant_dir(&args.results, &definition.name, &args.participant);
+    if participant_dir.is_dir() {
+        drop(runner::session::lock_participant(&participant_dir, &args.participant).map_err(runner_error)?);
+    }
     let set = runner::stimuli::StimulusSet::open_for(&args.stimuli, &definition).map_err(runner_error)?;
     let mut config = runner::app::AppConfig::new(definition, set, args.results.clone());
     config.participant = Some(args.participant.clone());
@@ -169,9 +168,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     match app.session() {
         Some(s) => {
             println!(
-                "{}: {} trials answered in this window; {}",
+                "{}: {} answered in this window; {}",
                 s.path().display(),
-                app.written.len(),
+                trials(app.written.len()),
                 if s.is_finished() { "session complete" } else { "session incomplete (run again to resume)" }
             );
             print!("{}", runner::summary::SessionSummary::new(&app.written, &calibration));
@@ -179,4 +178,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         None => println!("no session was started"),
     }
     Ok(())
+}
+
+/// "1 trial", "2 trials".
+fn trials(n: usize) -> String {
+    format!("{n} trial{}", if n == 1 { "" } else { "s" })
 }

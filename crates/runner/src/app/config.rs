@@ -5,8 +5,7 @@
 
 use std::path::PathBuf;
 
-use egui::{TextureOptions, Vec2};
-use study::StimulusId;
+use egui::{Pos2, Rect, TextureOptions, Vec2};
 use study::experiment::{DisplayMode, ExperimentDefinition};
 use study::response::Task;
 
@@ -97,15 +96,20 @@ impl AppConfig {
     /// calibrated scale: the largest layout of the experiment plus labels and buttons, at
     /// least 800x600 for the start screen.
     pub fn window_size(&self) -> [f32; 2] {
-        let scale = self.calibration().map_or(1.0, |c| c.scale);
+        let scale = self.calibration().map_or(1.0, |c| c.scale) as f32;
         let (w, h) = self.set.sequences.values().next().map_or((640, 360), |s| {
             crate::display::output_size(self.display, s.manifest.view, s.manifest.width, s.manifest.height)
         });
         let layout = layout_of(self.definition.task);
-        let content_w = f64::from(layout.columns) * f64::from(w) * scale + SLOT_GAP * f64::from(layout.columns - 1);
-        let content_h = f64::from(layout.rows) * f64::from(h) * scale + SLOT_GAP * f64::from(layout.rows - 1);
-        let chrome = chrome_lines(self.definition.task) as f64 * NOMINAL_LINE + NOMINAL_LINE + 2.0 * MARGIN;
-        [(content_w + 2.0 * MARGIN).max(800.0).ceil() as f32, (content_h + chrome).max(600.0).ceil() as f32]
+        let (columns, rows) = (layout.columns as f32, layout.rows as f32);
+        let content_w = columns * w as f32 * scale + SLOT_GAP * (columns - 1.0) + 2.0 * MARGIN;
+        let each_side = (3.0 * NOMINAL_LINE).max(1.5 * NOMINAL_LINE + NOMINAL_BUTTON) + MARGIN;
+        let content_h = rows * h as f32 * scale + (SLOT_GAP + NOMINAL_LINE) * (rows - 1.0) + 2.0 * each_side;
+        // Side by side at full resolution, the window holds both eyes' views.
+        let views =
+            if self.display == DisplayMode::SbsFull && self.definition.view == study::View::Stereo { 2.0 } else { 1.0 };
+        let content_w = if views > 1.0 { 2.0 * (content_w - w as f32 * scale * columns / 2.0) } else { content_w };
+        [content_w.max(800.0).ceil(), content_h.max(600.0).ceil()]
     }
 }
 
@@ -149,12 +153,14 @@ impl RefreshChoice {
     }
 }
 
-/// Pixels between slots of a layout (egui's default item spacing).
-const SLOT_GAP: f64 = 8.0;
-/// The central panel's margin, points.
-const MARGIN: f64 = 8.0;
+/// Points between the slots of a matching trial.
+pub(super) const SLOT_GAP: f32 = 24.0;
+/// The least distance from the stimuli and text to the edge of the view, points.
+pub(super) const MARGIN: f32 = 24.0;
 /// A text line with spacing at egui's default style, points (for sizing the window only).
-const NOMINAL_LINE: f64 = 22.0;
+const NOMINAL_LINE: f32 = 26.0;
+/// A row of buttons, points (for sizing the window only).
+const NOMINAL_BUTTON: f32 = 40.0;
 
 fn layout_of(task: Task) -> Layout {
     match task {
@@ -163,16 +169,81 @@ fn layout_of(task: Task) -> Layout {
     }
 }
 
-/// Text lines of a trial screen around the stimuli: the trial label, a notice, the slot
-/// labels (one per row), the fit warning and the question (the buttons come on top).
-fn chrome_lines(task: Task) -> u32 {
-    2 + layout_of(task).rows + 2
+/// Where a trial's pieces lie in the view (points): the stimuli centred on the view's
+/// centre (2AFC: one place for both sequences; matching: the reference centred above its
+/// two candidates), each slot's label above it, the notice and progress lines above the
+/// stimuli and the question and buttons below them.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct TrialLayout {
+    /// Stimulus rectangles: 2AFC one; matching the reference, then candidates A and B.
+    pub(super) slots: Vec<Rect>,
+    /// The label line above each slot.
+    pub(super) labels: Vec<Rect>,
+    /// The progress line ("Trial 3 of 36") and, above it, the notice line.
+    pub(super) progress: Rect,
+    pub(super) notice: Rect,
+    /// The question line and the row of buttons below the stimuli.
+    pub(super) question: Rect,
+    pub(super) buttons: Rect,
+}
+
+impl TrialLayout {
+    /// Lines of text above the stimuli (notice, progress) and below (question), besides the
+    /// slot labels and the row of buttons.
+    const LINES_ABOVE: f32 = 2.0;
+
+    /// The layout of `task` with stimuli of `stimulus` points in `view`, for text lines of
+    /// `line` points and buttons `button` points high.
+    pub(super) fn new(view: Rect, task: Task, stimulus: Vec2, line: f32, button: f32) -> TrialLayout {
+        let c = view.center();
+        let (w, h) = (stimulus.x, stimulus.y);
+        let slots: Vec<Rect> = match task {
+            Task::TwoAfc => vec![Rect::from_center_size(c, stimulus)],
+            Task::Match => {
+                // Label, reference, gap, label, candidates: centred as a group.
+                let group_h = 2.0 * (line + h) + SLOT_GAP;
+                let top = c.y - group_h / 2.0 + line;
+                let bottom = top + h + SLOT_GAP + line;
+                vec![
+                    Rect::from_min_size(Pos2::new(c.x - w / 2.0, top), stimulus),
+                    Rect::from_min_size(Pos2::new(c.x - SLOT_GAP / 2.0 - w, bottom), stimulus),
+                    Rect::from_min_size(Pos2::new(c.x + SLOT_GAP / 2.0, bottom), stimulus),
+                ]
+            }
+        };
+        let labels = slots
+            .iter()
+            .map(|r| Rect::from_min_max(Pos2::new(r.left(), r.top() - line), Pos2::new(r.right(), r.top())))
+            .collect();
+        let top = slots.iter().map(|r| r.top()).fold(f32::INFINITY, f32::min) - line;
+        let bottom = slots.iter().map(|r| r.bottom()).fold(f32::NEG_INFINITY, f32::max);
+        let row =
+            |y: f32, height: f32| Rect::from_min_max(Pos2::new(view.left(), y), Pos2::new(view.right(), y + height));
+        TrialLayout {
+            slots,
+            labels,
+            progress: row(top - line, line),
+            notice: row(top - 2.0 * line, line),
+            question: row(bottom + line / 2.0, line),
+            buttons: row(bottom + 1.5 * line, button),
+        }
+    }
+
+    /// The height the text needs on each side of the stimuli for them to stay centred: the
+    /// larger of what lies above (notice, progress, a slot label) and below (question,
+    /// buttons), plus the margin.
+    fn chrome_each_side(line: f32, button: f32) -> f32 {
+        ((Self::LINES_ABOVE + 1.0) * line).max(1.5 * line + button) + MARGIN
+    }
 }
 
 /// The scale (screen pixels per stimulus pixel) at which a trial's stimuli of `stimulus`
-/// pixels fit the window, and a warning when that is below the calibration.
+/// pixels (one eye's picture) fit the view, and a warning when that is below the
+/// calibration.
+#[allow(clippy::too_many_arguments)]
 fn fitted_scale(
     ctx: &egui::Context,
+    view: Rect,
     calibration: Option<&Calibration>,
     viewing: &Viewing,
     eye_width: u32,
@@ -181,18 +252,17 @@ fn fitted_scale(
 ) -> (f64, Option<String>) {
     let calibrated = calibration.map_or(1.0, |c| c.scale);
     let ppp = f64::from(ctx.pixels_per_point());
-    let style = ctx.global_style();
-    let spacing = f64::from(style.spacing.item_spacing.y);
-    let line = f64::from(ctx.fonts_mut(|f| f.row_height(&egui::TextStyle::Body.resolve(&style)))) + spacing;
-    let button = f64::from(style.spacing.interact_size.y) + spacing;
-    let rect = ctx.content_rect();
-    let chrome = f64::from(chrome_lines(task)) * line + button + 2.0 * MARGIN;
-    let space = ((f64::from(rect.width()) - 2.0 * MARGIN) * ppp, (f64::from(rect.height()) - chrome) * ppp);
+    let (line, button) = text_metrics(ctx);
+    let layout = layout_of(task);
+    // Matching stacks a second label line between its rows.
+    let labels_inside = (layout.rows - 1) as f32 * line;
+    let chrome = 2.0 * TrialLayout::chrome_each_side(line, button) + labels_inside;
+    let space = (f64::from(view.width() - 2.0 * MARGIN) * ppp, f64::from(view.height() - chrome) * ppp);
     let stim = (stimulus[0] as f64, stimulus[1] as f64);
-    let (scale, reduced) = fit_scale(calibrated, stim, layout_of(task), space, SLOT_GAP * ppp);
+    let (scale, reduced) = fit_scale(calibrated, stim, layout, space, f64::from(SLOT_GAP) * ppp);
     let warning = reduced.then(|| {
         format!(
-            "The window is too small for the calibrated size: stimuli are drawn at {:.0}% ({:.1} instead of {:.1} degrees). Enlarge the window or run full screen.",
+            "The window is too small for the calibrated size: stimuli are drawn at {:.0}% ({:.1} instead of {:.1} degrees); this is logged with each trial. Enlarge the window or run full screen.",
             100.0 * scale / calibrated,
             visual_angle_deg(viewing, eye_width, scale),
             visual_angle_deg(viewing, eye_width, calibrated)
@@ -201,11 +271,35 @@ fn fitted_scale(
     (scale, warning)
 }
 
+/// The height of a line of body text and of a button row at the context's style (points).
+pub(super) fn text_metrics(ctx: &egui::Context) -> (f32, f32) {
+    let style = ctx.global_style();
+    let spacing = style.spacing.item_spacing.y;
+    let line = ctx.fonts_mut(|f| f.row_height(&egui::TextStyle::Body.resolve(&style))) + spacing;
+    let button = style.spacing.interact_size.y + 2.0 * style.spacing.button_padding.y + spacing;
+    (line, button)
+}
+
+/// How large a trial's stimuli are drawn.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Drawn {
+    /// One eye's picture of a stimulus in view points.
+    pub(super) size: Vec2,
+    /// Screen pixels per stimulus pixel.
+    pub(super) scale: f64,
+    /// The visual angle one eye's picture subtends at that scale, degrees.
+    pub(super) angle_deg: f64,
+    /// Set when the view is too small for the calibrated size.
+    pub(super) warning: Option<String>,
+}
+
 impl RunnerApp {
     /// Sharp texels at an integer calibration that fits the window; smoothing otherwise.
     pub(super) fn filter(&self, ctx: &egui::Context, task: Task, prepared: &[Prepared]) -> TextureOptions {
         let reduced = prepared.first().is_some_and(|d| {
-            fitted_scale(ctx, self.calibration.as_ref(), &self.config.viewing, d.eye_width, task, d.size).1.is_some()
+            let eye = [d.eye_width as usize, d.size[1]];
+            let cal = self.calibration.as_ref();
+            fitted_scale(ctx, self.views.view, cal, &self.config.viewing, d.eye_width, task, eye).1.is_some()
         });
         if !reduced && self.calibration.as_ref().is_none_or(|c| c.integer) {
             TextureOptions::NEAREST
@@ -214,23 +308,18 @@ impl RunnerApp {
         }
     }
 
-    /// The size in points of a stimulus drawn in a trial (or example) of `task`, and the
-    /// warning when the window is too small for the calibrated size.
-    pub(super) fn drawn_size(
-        &self,
-        ctx: &egui::Context,
-        task: Task,
-        id: &StimulusId,
-        size: [usize; 2],
-    ) -> (Vec2, Option<String>) {
-        let eye = self
-            .config
-            .set
-            .sequences
-            .get(id)
-            .map_or(size[0] as u32, |s| crate::display::eye_width(s.manifest.view, s.manifest.width));
-        let (scale, warning) = fitted_scale(ctx, self.calibration.as_ref(), &self.config.viewing, eye, task, size);
+    /// How a stimulus whose eye's picture is `eye_size` pixels is drawn in a trial (or
+    /// example) of `task` in the current view.
+    pub(super) fn drawn(&self, ctx: &egui::Context, task: Task, eye_size: [usize; 2]) -> Drawn {
+        let eye = eye_size[0] as u32;
+        let (scale, warning) =
+            fitted_scale(ctx, self.views.view, self.calibration.as_ref(), &self.config.viewing, eye, task, eye_size);
         let points = scale as f32 / ctx.pixels_per_point();
-        (Vec2::new(size[0] as f32, size[1] as f32) * points, warning)
+        Drawn {
+            size: Vec2::new(eye_size[0] as f32, eye_size[1] as f32) * points,
+            scale,
+            angle_deg: visual_angle_deg(&self.config.viewing, eye, scale),
+            warning,
+        }
     }
 }

@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::thread::JoinHandle;
 
-use egui::{Color32, TextureHandle, TextureOptions, Vec2};
+use egui::{Color32, Rect, TextureHandle, TextureOptions, Vec2};
 use study::StimulusId;
 use study::experiment::DisplayMode;
 
@@ -16,6 +16,7 @@ use super::RunnerApp;
 use crate::RunnerError;
 use crate::gpu::{Draw, FrameUploader, StimulusCallback, StimulusPipelines};
 use crate::stimuli::decode_sequence_for;
+use crate::views::Views;
 
 /// How often the loading screen redraws its progress bar: not continuously, so the window
 /// leaves the cores to the frame decoders (it is checked again within this delay).
@@ -25,6 +26,7 @@ pub(super) const LOADING_REDRAW: std::time::Duration = std::time::Duration::from
 pub(super) struct Loaded {
     pub(super) textures: HashMap<StimulusId, Frames>,
     pub(super) fps: HashMap<StimulusId, f64>,
+    /// One eye's picture (pixels): the frame's size for mono, half its width for stereo.
     pub(super) size: HashMap<StimulusId, [usize; 2]>,
 }
 
@@ -58,42 +60,81 @@ impl Frames {
         }
     }
 
-    /// Draws frame `frame` at `size` points.
-    pub(super) fn show(&self, ui: &mut egui::Ui, frame: usize, size: Vec2) {
+    /// Draws frame `frame` into view rectangle `rect` (one eye's picture) for every eye of
+    /// `views`, and returns where it landed in the window (per eye). In one-view modes it is
+    /// painted in place; in the split modes each eye's part of the image goes into that eye's
+    /// region, on the stimulus layer above the view (whose copies [`Views::compose`] makes).
+    pub(super) fn paint(&self, ui: &mut egui::Ui, frame: usize, rect: Rect, views: &Views) -> Vec<Rect> {
+        if !views.is_split() {
+            let painter = ui.painter().clone();
+            let (at, warning) = self.paint_one(ui, &painter, frame, rect, FULL_UV);
+            if let Some(w) = warning {
+                let below = Rect::from_min_size(at.left_bottom() + Vec2::new(0.0, 4.0), Vec2::new(at.width(), 40.0));
+                ui.put(below, egui::Label::new(egui::RichText::new(w).color(Color32::from_rgb(140, 0, 0))));
+            }
+            return vec![at];
+        }
+        let layer = egui::LayerId::new(egui::Order::Foreground, egui::Id::unique("blurlab stimulus"));
+        (0..views.eyes.len())
+            .map(|eye| {
+                let at = views.rect_to_window(eye, rect);
+                let painter = ui.ctx().layer_painter(layer).with_clip_rect(at);
+                self.paint_one(ui, &painter, frame, at, views.eyes[eye].uv).0
+            })
+            .collect()
+    }
+
+    /// Paints part `uv` (texture coordinates) of frame `frame` into window rectangle `at`;
+    /// returns where it landed and a warning when the stereo shown is wrong.
+    fn paint_one(
+        &self,
+        ui: &egui::Ui,
+        painter: &egui::Painter,
+        frame: usize,
+        at: Rect,
+        uv: Rect,
+    ) -> (Rect, Option<String>) {
         match self {
             Frames::Egui { handles, interleaved: false } => {
-                ui.image(egui::load::SizedTexture::new(handles[frame].id(), size));
+                painter.image(handles[frame].id(), at, uv, Color32::WHITE);
+                (at, None)
             }
             Frames::Egui { handles, interleaved: true } => {
-                let (rect, _) = ui.allocate_exact_size(size, egui::Sense::hover());
                 let ppp = ui.ctx().pixels_per_point();
                 let image_h = handles[frame].size()[1];
-                let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
-                match interleave_origin(rect.min, ppp, image_h, size.y) {
-                    // Up to 2 pixels lower and 1 to the right: within the item spacing.
+                match interleave_origin(at.min, ppp, image_h, at.height()) {
+                    // Up to 2 pixels lower and 1 to the right: within the margins.
                     Some(origin) => {
-                        let at = egui::Rect::from_min_size(origin, size);
-                        ui.painter().image(handles[frame].id(), at, uv, Color32::WHITE);
+                        let moved = Rect::from_min_size(origin, at.size());
+                        painter.image(handles[frame].id(), moved, uv, Color32::WHITE);
+                        (moved, None)
                     }
                     None => {
-                        ui.painter().image(handles[frame].id(), rect, uv, Color32::WHITE);
-                        let lines = size.y * ppp / image_h.max(1) as f32;
+                        painter.image(handles[frame].id(), at, uv, Color32::WHITE);
+                        let lines = at.height() * ppp / image_h.max(1) as f32;
                         let warning = interleave_warning(lines);
                         if !INTERLEAVE_WARNED.swap(true, Ordering::Relaxed) {
                             eprintln!("warning: {warning}");
                         }
-                        ui.colored_label(Color32::RED, warning);
+                        (at, Some(warning))
                     }
                 }
             }
             Frames::Native { binds, draw, filter } => {
-                let (rect, _) = ui.allocate_exact_size(size, egui::Sense::hover());
+                // The viewport is the whole image, placed so that part `uv` lands on `at`; the
+                // clip rectangle (the scissor) keeps the rest off the screen.
+                let size = at.size() / uv.size();
+                let viewport = Rect::from_min_size(at.min - uv.min.to_vec2() * size, size);
                 let callback = StimulusCallback { bind: binds[frame].clone(), draw: *draw, filter: *filter };
-                ui.painter().add(eframe::egui_wgpu::Callback::new_paint_callback(rect, callback));
+                painter.add(eframe::egui_wgpu::Callback::new_paint_callback(viewport, callback));
+                (at, None)
             }
         }
     }
 }
+
+/// The whole image in texture coordinates.
+const FULL_UV: Rect = Rect { min: egui::Pos2 { x: 0.0, y: 0.0 }, max: egui::Pos2 { x: 1.0, y: 1.0 } };
 
 /// A sequence made ready by the loader thread.
 pub(super) struct Prepared {
@@ -160,7 +201,8 @@ impl RunnerApp {
     pub(super) fn upload(ctx: &egui::Context, prepared: Vec<Prepared>, filter: TextureOptions) -> Loaded {
         let mut loaded = Loaded { textures: HashMap::new(), fps: HashMap::new(), size: HashMap::new() };
         for d in prepared {
-            loaded.size.insert(d.id, d.size);
+            // One eye's picture: what the view shows and the calibration sizes.
+            loaded.size.insert(d.id, [d.eye_width as usize, d.size[1]]);
             let frames = match d.content {
                 Content::Images(images, interleaved) => Frames::Egui {
                     handles: images
@@ -186,12 +228,16 @@ impl RunnerApp {
         loaded
     }
 
-    pub(super) fn poll(ui: &mut egui::Ui, job: &mut LoadJob, message: &mut Option<String>) -> Option<Vec<Prepared>> {
+    /// The loader's progress as a bar of `width` points ("12 / 30 frames").
+    pub(super) fn progress_bar(job: &LoadJob, width: f32) -> egui::ProgressBar {
         let done = job.progress.load(Ordering::Relaxed);
-        ui.add(
-            egui::ProgressBar::new(done as f32 / job.total.max(1) as f32)
-                .text(format!("{done} / {} frames", job.total)),
-        );
+        egui::ProgressBar::new(done as f32 / job.total.max(1) as f32)
+            .desired_width(width)
+            .text(format!("Loading: {done} / {} frames", job.total))
+    }
+
+    /// The prepared sequences once the loader has finished (an error goes to `message`).
+    pub(super) fn poll(job: &mut LoadJob, message: &mut Option<String>) -> Option<Vec<Prepared>> {
         if job.handle.as_ref().is_some_and(JoinHandle::is_finished) {
             let handle = job.handle.take().expect("checked above");
             match handle.join() {

@@ -1,19 +1,26 @@
 //! The participant's window: a thin egui layer over [`crate::session`],
 //! [`crate::playback`], [`crate::display`] and [`crate::calibration`].
 //!
-//! Screens: start (participant code, attributes, display check) -> briefing (text and
-//! labelled example sequences) -> for each trial: loading (frames decoded on worker threads
-//! with a progress bar, then uploaded as textures: on eframe's wgpu device by the loader
-//! thread and drawn by [`crate::gpu`]'s pipelines, which compose the anaglyph; without one,
-//! by egui), presentation (sequences one after the
-//! other at their frame rate, paced by [`Playback`]), answer (keys or buttons, replay when
-//! allowed) -> breaks -> done. Escape asks before quitting; every answered trial is already
-//! synced to disk, so quitting loses only the trial on screen, which is shown again when the
-//! session resumes.
+//! Screens: start (the participant's questions above, the experimenter's part below:
+//! participant code, calibration with the ruler check, refresh, earlier sessions) ->
+//! briefing (reflowed text, the response keys, the glasses to wear, labelled example
+//! sequences) -> for each trial: ready (a fixation mark on the neutral field for the
+//! definition's `ready_ms`, or until Space, while the frames are decoded on worker threads
+//! and uploaded as textures: on eframe's wgpu device by the loader thread and drawn by
+//! [`crate::gpu`]'s pipelines, which compose the stereo modes; without one, by egui),
+//! presentation (sequences one after the other at their frame rate, paced by [`Playback`],
+//! centred in the view), answer (keys or buttons, replay when allowed) -> the end of practice
+//! -> breaks -> done. Space or Enter moves on from every screen that waits. Escape asks
+//! before quitting a running session; every answered trial is already synced to disk, so
+//! quitting loses only the trial on screen, which is shown again when the session resumes.
+//!
+//! Everything is drawn once, in the participant's *view*, on a mid-grey field
+//! ([`FIELD_GREY`]); [`Views`] then puts a copy of it where each eye looks in the
+//! side-by-side and top-bottom modes, with each eye's own image in the stimulus's place.
 //!
 //! One job per file: this one holds the application and its flow from screen to screen;
 //! `config` the configuration and layout, `loading` the decoding and uploading of a
-//! trial's stimuli, `screens` what each screen draws.
+//! trial's stimuli, `screens` what each screen draws, `start` the start screen.
 
 use std::sync::Arc;
 
@@ -26,12 +33,25 @@ use crate::gpu::{FrameUploader, StimulusPipelines};
 use crate::playback::{Playback, RefreshEstimate, estimate_refresh};
 use crate::schedule::Trial;
 use crate::session::{Answer, Session, SessionOptions, check_participant};
+use crate::views::Views;
 
 mod config;
 mod loading;
 mod screens;
+mod start;
 
 pub use config::{ASSUMED_REFRESH_HZ, AppConfig, REFRESH_CALIBRATION_FRAMES, REFRESH_CALIBRATION_MAX_S, RefreshChoice};
+
+/// The neutral field behind everything: the surround, the gap between sequences, the ready
+/// screen and the place of a stimulus not playing. sRGB code 128 in every channel, CIE L* 54
+/// (perceptual mid-grey), 21.6 % of the display's white in linear light. The thesis gives no
+/// surround (its sequences were shown in "similar dim lighting conditions" on a 300 cd/m2 LCD);
+/// a mid-grey field keeps the jump from a sequence to the gap small in both directions.
+pub const FIELD_GREY: u8 = 128;
+/// Text on the field (near-black: contrast 5:1 against it).
+const TEXT: Color32 = Color32::from_gray(12);
+/// Warnings for the experimenter on the field.
+const WARNING: Color32 = Color32::from_rgb(120, 0, 0);
 use loading::{GpuTarget, LOADING_REDRAW, LoadJob, Loaded};
 
 // One phase exists at a time; boxing the example's state would only add indirection.
@@ -41,11 +61,21 @@ enum Phase {
     Briefing,
     LoadingExample(usize, LoadJob),
     Example { index: usize, loaded: Loaded, playback: Option<Playback> },
-    Loading(Trial, LoadJob),
+    Ready(Box<Ready>),
     Presenting(Box<Presenting>),
+    PracticeOver,
     Break,
     Done,
     Closed,
+}
+
+/// The ready screen before a trial, while its frames load.
+struct Ready {
+    trial: Trial,
+    job: LoadJob,
+    loaded: Option<Loaded>,
+    /// When the screen was first drawn.
+    since: Option<f64>,
 }
 
 struct Presenting {
@@ -53,6 +83,8 @@ struct Presenting {
     loaded: Loaded,
     playback: Option<Playback>,
     replays: u32,
+    /// The smallest scale (and its visual angle) the stimuli were drawn at so far.
+    shown: Option<(f64, f64)>,
 }
 
 /// The eframe application.
@@ -78,6 +110,17 @@ pub struct RunnerApp {
     /// device (`None` in headless tests and with the glow renderer: egui uploads the frames
     /// then, and the display transforms all run on the CPU).
     gpu: Option<GpuTarget>,
+    /// Where the view lies for each eye in the current frame.
+    views: Views,
+    /// Where the stimuli were drawn in the last frame (window points, per slot and eye).
+    stimulus_rects: Vec<egui::Rect>,
+    /// The experimenter confirmed the ruler check on the start screen.
+    ruler_confirmed: bool,
+    /// The experimenter confirmed starting a new session after completed ones.
+    new_session_confirmed: bool,
+    /// What the results hold for the participant code on the start screen (and the code).
+    status: Option<(String, Result<crate::session::ParticipantStatus, String>)>,
+    styled: bool,
 }
 
 impl RunnerApp {
@@ -102,6 +145,12 @@ impl RunnerApp {
             measured: None,
             measuring_done: false,
             gpu: None,
+            views: Views::of(study::experiment::DisplayMode::Mono, study::View::Mono, egui::Rect::ZERO),
+            stimulus_rects: Vec::new(),
+            ruler_confirmed: false,
+            new_session_confirmed: false,
+            status: None,
+            styled: false,
         }
     }
 
@@ -131,9 +180,32 @@ impl RunnerApp {
         self.session.is_some() && !matches!(self.phase, Phase::Done | Phase::Closed)
     }
 
-    /// Whether the session may start: the refresh measurement is over or a rate was given.
+    /// Whether the session may start as far as the display's refresh goes: a rate was given,
+    /// or the measurement is over and found a display refresh (the autopilot of benchmarks
+    /// also runs on an assumed rate).
     pub fn ready_to_start(&self) -> bool {
-        self.measuring_done || self.config.refresh_hz.is_some()
+        self.config.refresh_hz.is_some()
+            || (self.measuring_done
+                && (self.config.autopilot.is_some() || self.measured.is_some_and(|m| m.is_display_refresh())))
+    }
+
+    /// Whether the refresh measurement is over and unreliable, so that a session may start
+    /// only with `--refresh-hz`.
+    pub fn refresh_unreliable(&self) -> bool {
+        self.config.refresh_hz.is_none()
+            && self.measuring_done
+            && !self.measured.is_some_and(|m| m.is_display_refresh())
+    }
+
+    /// Where the stimuli were drawn in the last frame, window points: per slot on screen, one
+    /// rectangle per eye (two in the side-by-side and top-bottom modes).
+    pub fn stimulus_rects(&self) -> &[egui::Rect] {
+        &self.stimulus_rects
+    }
+
+    /// The view and each eye's region in the last frame.
+    pub fn views(&self) -> &Views {
+        &self.views
     }
 
     /// Takes the time of a start-screen frame for the refresh measurement (frames are drawn
@@ -158,13 +230,21 @@ impl RunnerApp {
         self.session.as_ref()
     }
 
-    /// The name of the current screen (`start`, `briefing`, `loading`, `presenting`,
-    /// `answer`, `break`, `done`, `closed`, `example`).
+    /// The name of the current screen (`start`, `briefing`, `loading`, `ready`,
+    /// `presenting`, `answer`, `practice-over`, `break`, `done`, `closed`, `example`).
     pub fn screen(&self) -> &'static str {
         match &self.phase {
             Phase::Start => "start",
             Phase::Briefing => "briefing",
-            Phase::LoadingExample(..) | Phase::Loading(..) => "loading",
+            Phase::LoadingExample(..) => "loading",
+            Phase::Ready(r) => {
+                if r.loaded.is_some() {
+                    "ready"
+                } else {
+                    "loading"
+                }
+            }
+            Phase::PracticeOver => "practice-over",
             Phase::Example { .. } => "example",
             Phase::Presenting(p) => {
                 if p.playback.as_ref().is_some_and(Playback::is_done) {
@@ -194,21 +274,35 @@ impl RunnerApp {
             self.message = Some(e.to_string());
             return;
         }
-        if let Some(i) = self.attributes.iter().position(Option::is_none) {
+        let recorded = self.recorded_attributes();
+        if recorded.is_none()
+            && let Some(i) = self.attributes.iter().position(Option::is_none)
+        {
             self.message = Some(format!("Please answer: {}", self.config.definition.attributes[i].question));
             return;
         }
-        let attributes = self
-            .config
-            .definition
-            .attributes
-            .iter()
-            .zip(&self.attributes)
-            .map(|(a, sel)| (a.key.clone(), a.options[sel.unwrap_or(0)].clone()))
-            .collect();
+        if self.config.autopilot.is_none() && !self.ruler_confirmed {
+            self.message = Some("Experimenter: measure the bar with a ruler and tick the check first.".into());
+            return;
+        }
+        let attributes = match recorded {
+            Some(r) => r,
+            None => self
+                .config
+                .definition
+                .attributes
+                .iter()
+                .zip(&self.attributes)
+                .map(|(a, sel)| (a.key.clone(), a.options[sel.unwrap_or(0)].clone()))
+                .collect(),
+        };
         let display = self.config.display_json(&self.refresh());
-        let options =
-            SessionOptions { seed: self.config.seed, display: Some(display), attributes, allow_new_session: false };
+        let options = SessionOptions {
+            seed: self.config.seed,
+            display: Some(display),
+            attributes,
+            allow_new_session: self.new_session_confirmed || self.config.autopilot.is_some(),
+        };
         match Session::open(
             &self.config.definition,
             &self.config.set,
@@ -219,7 +313,7 @@ impl RunnerApp {
             Ok(session) => {
                 let mut notes = session.warnings.clone();
                 if session.resumed {
-                    notes.push(format!("Resuming session {} at trial {}.", session.number, session.next + 1));
+                    notes.push(resume_note(&session));
                 }
                 self.message = (!notes.is_empty()).then(|| notes.join("\n"));
                 let finished = session.is_finished();
@@ -236,7 +330,7 @@ impl RunnerApp {
             None => self.phase = Phase::Done,
             Some(trial) => {
                 let job = self.load(&trial.shown);
-                self.phase = Phase::Loading(trial, job);
+                self.phase = Phase::Ready(Box::new(Ready { trial, job, loaded: None, since: None }));
             }
         }
     }
@@ -245,23 +339,30 @@ impl RunnerApp {
         let Phase::Presenting(p) = &mut self.phase else { return };
         let Some(playback) = &p.playback else { return };
         let Some(end) = playback.finished_at else { return };
+        let calibrated = self.calibration.as_ref().map(|c| (c.scale, c.angle_deg));
+        // No calibration (a failed one): 0 records no scale rather than a guessed one.
+        let (scale, visual_angle_deg) = p.shown.or(calibrated).unwrap_or((0.0, 0.0));
+        let was_practice = p.trial.practice;
         let answer = Answer {
             slot,
             response_ms: ((now - end).max(0.0) * 1000.0).round() as u64,
             replays: p.replays,
             dropped_frames: playback.dropped,
             frames: playback.presented.clone(),
-            scale: self.calibration.as_ref().map_or(0.0, |c| c.scale),
-            visual_angle_deg: self.calibration.as_ref().map_or(0.0, |c| c.angle_deg),
+            scale,
+            visual_angle_deg,
         };
         let Some(session) = &mut self.session else { return };
         match session.record(&answer) {
             Ok(row) => {
                 self.written.push(row);
+                let practice_over = was_practice && session.current().is_some_and(|t| !t.practice);
                 if self.config.autopilot.is_some_and(|n| self.written.len() >= n) {
                     self.phase = Phase::Closed;
                 } else if session.is_finished() {
                     self.phase = Phase::Done;
+                } else if practice_over {
+                    self.phase = Phase::PracticeOver;
                 } else if session.break_due() {
                     self.phase = Phase::Break;
                 } else {
@@ -276,10 +377,19 @@ impl RunnerApp {
         Key::from_name(name)
     }
 
+    /// Whether Space or Enter was pressed (moving on from a screen that waits).
+    fn continue_pressed(ui: &egui::Ui) -> bool {
+        ui.input(|i| i.key_pressed(Key::Space) || i.key_pressed(Key::Enter))
+    }
+
     fn draw_ui(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
         let now = ui.input(|i| i.time);
-        if ui.input(|i| i.key_pressed(Key::Escape)) && !matches!(self.phase, Phase::Closed) {
+        let escape = ui.input(|i| i.key_pressed(Key::Escape));
+        if escape && matches!(self.phase, Phase::Done) {
+            // The session is complete and saved: nothing to ask.
+            self.phase = Phase::Closed;
+        } else if escape && !matches!(self.phase, Phase::Closed) {
             self.confirm_quit = !self.confirm_quit;
         }
         if matches!(self.phase, Phase::Start) {
@@ -289,44 +399,22 @@ impl RunnerApp {
             match self.phase {
                 // The autopilot (benchmarks) always lets the refresh measurement finish.
                 Phase::Start if self.measuring_done => self.start_session(),
-                Phase::Briefing | Phase::Break => self.next_trial(),
+                Phase::Briefing | Phase::Break | Phase::PracticeOver => self.next_trial(),
                 Phase::Done => self.phase = Phase::Closed,
                 _ => {}
             }
         }
         if self.confirm_quit {
-            ui.heading("Quit the experiment?");
-            ui.label("Every answer so far is saved. The trial on screen will be shown again when you resume.");
-            if let Some(s) = &self.session {
-                ui.label(format!("Saved in {}", s.path().display()));
-            }
-            ui.horizontal(|ui| {
-                if ui.button("Quit").clicked() {
-                    self.confirm_quit = false;
-                    self.phase = Phase::Closed;
-                    ctx.send_viewport_cmd(egui::ViewportCommand::Close);
-                }
-                if ui.button("Continue").clicked() {
-                    self.confirm_quit = false;
-                    if let Phase::Presenting(p) = &mut self.phase
-                        && let Some(pb) = &mut p.playback
-                        && !pb.is_done()
-                    {
-                        pb.restart(now);
-                    }
-                }
-            });
+            self.quit_screen(ui, now);
             return;
-        }
-        if let Some(m) = &self.message {
-            ui.colored_label(Color32::from_rgb(230, 160, 60), m);
         }
         match &mut self.phase {
             Phase::Start => self.start_screen(ui),
             Phase::Briefing => self.briefing_screen(ui),
             Phase::LoadingExample(index, job) => {
                 let index = *index;
-                if let Some(decoded) = Self::poll(ui, job, &mut self.message) {
+                screens::fixation(ui, self.views.view.center());
+                if let Some(decoded) = Self::poll(job, &mut self.message) {
                     let filter = self.filter(&ctx, Task::TwoAfc, &decoded);
                     let loaded = Self::upload(&ctx, decoded, filter);
                     self.phase = Phase::Example { index, loaded, playback: None };
@@ -336,61 +424,170 @@ impl RunnerApp {
                 }
             }
             Phase::Example { .. } => self.example_screen(ui, now),
-            Phase::Loading(trial, job) => {
-                ui.label(format!("Preparing trial {}...", trial.index + 1));
-                if let Some(decoded) = Self::poll(ui, job, &mut self.message) {
-                    let trial = trial.clone();
-                    let filter = self.filter(&ctx, trial.task, &decoded);
-                    let loaded = Self::upload(&ctx, decoded, filter);
-                    self.phase = Phase::Presenting(Box::new(Presenting { trial, loaded, playback: None, replays: 0 }));
-                    ctx.request_repaint();
-                } else {
-                    ctx.request_repaint_after(LOADING_REDRAW);
+            Phase::Ready(_) => self.ready_screen(ui, now),
+            Phase::Presenting(_) => self.trial_screen(ui, now),
+            Phase::PracticeOver => {
+                let go = screens::message_screen(
+                    ui,
+                    "Practice is over",
+                    &[
+                        "The experiment starts now: from here on your answers count.",
+                        "Answer as you did in practice, by your first impression.",
+                    ],
+                    "Begin the experiment",
+                );
+                if go || Self::continue_pressed(ui) {
+                    self.message = None;
+                    self.next_trial();
                 }
             }
-            Phase::Presenting(_) => self.trial_screen(ui, now),
             Phase::Break => {
-                ui.heading("Take a break");
-                if let Some((done, total)) = self.session.as_ref().map(Session::counted_progress) {
-                    ui.label(format!("{done} of {total} trials done. Continue when you are ready."));
-                }
-                if ui.button("Continue").clicked() {
+                let progress = self.session.as_ref().map(Session::counted_progress).unwrap_or_default();
+                let line = format!(
+                    "{} done. Rest your eyes, then continue when you are ready.",
+                    trials(progress.0, progress.1)
+                );
+                if screens::message_screen(ui, "Take a break", &[&line], "Continue") || Self::continue_pressed(ui) {
                     self.next_trial();
                 }
             }
             Phase::Done => {
-                ui.heading("Thank you!");
-                ui.label("The session is complete and saved.");
-                if let Some(s) = &self.session {
-                    ui.label(format!("{}", s.path().display()));
-                }
-                if ui.button("Close").clicked() {
+                let close = screens::message_screen(
+                    ui,
+                    "Thank you!",
+                    &["The session is complete and your answers are saved.", "Please tell the experimenter."],
+                    "Close",
+                );
+                if close || Self::continue_pressed(ui) {
                     self.phase = Phase::Closed;
                     ctx.send_viewport_cmd(egui::ViewportCommand::Close);
                 }
             }
             Phase::Closed => {
-                ui.label("Closed.");
                 ctx.send_viewport_cmd(egui::ViewportCommand::Close);
             }
         }
     }
+
+    /// The answers recorded for a participant whose session will resume (shown instead of
+    /// asking again), from the start screen's look at the results.
+    fn recorded_attributes(&self) -> Option<Vec<(String, String)>> {
+        match &self.status {
+            Some((code, Ok(status))) if code == self.code.trim() && start::resumes(status) => {
+                Some(status.attributes.clone())
+            }
+            _ => None,
+        }
+    }
+}
+
+/// "1 trial", "36 trials", "3 of 36 trials".
+fn trials(done: usize, total: usize) -> String {
+    let noun = |n: usize| if n == 1 { "trial" } else { "trials" };
+    if done == total { format!("{done} {}", noun(done)) } else { format!("{done} of {total} {}", noun(total)) }
+}
+
+/// What a resumed session says: counted trials answered and the next one, in the numbering
+/// the trial screen uses.
+fn resume_note(session: &Session) -> String {
+    let (done, total) = session.counted_progress();
+    match session.current() {
+        Some(t) if t.practice => format!("Resuming session {}: practice is not finished.", session.number),
+        Some(_) => format!(
+            "Resuming session {}: {} answered, next is trial {} of {total}.",
+            session.number,
+            trials(done, total),
+            done + 1
+        ),
+        None => format!("Session {} is complete.", session.number),
+    }
+}
+
+impl RunnerApp {
+    /// Draws one frame: the field, the view (once), then each eye's copy of it.
+    pub fn frame_ui(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        if !self.styled {
+            style(&ctx);
+            self.styled = true;
+        }
+        if ui.input(|i| i.viewport().close_requested()) && self.close_needs_confirmation() {
+            ctx.send_viewport_cmd(egui::ViewportCommand::CancelClose);
+            self.confirm_quit = true;
+        }
+        let window = ctx.content_rect();
+        let view = self.config.set.sequences.values().next().map_or(study::View::Mono, |s| s.manifest.view);
+        self.views = Views::of(self.config.display, view, window);
+        self.stimulus_rects.clear();
+        let layer = ui.layer_id();
+        ui.painter().rect_filled(window, 0.0, Color32::from_gray(FIELD_GREY));
+        let from = ctx.graphics(|g| g.get(layer).map_or(0, |l| l.next_idx().0));
+        let builder = egui::UiBuilder::new().max_rect(self.views.view);
+        ui.scope_builder(builder, |ui| {
+            ui.set_clip_rect(self.views.view);
+            self.draw_ui(ui);
+        });
+        self.views.compose(&ctx, layer, from);
+    }
+}
+
+/// The participant's style: dark text on the mid-grey field, buttons a little lighter.
+fn style(ctx: &egui::Context) {
+    let mut visuals = egui::Visuals::light();
+    let field = Color32::from_gray(FIELD_GREY);
+    visuals.panel_fill = field;
+    visuals.window_fill = field;
+    visuals.extreme_bg_color = Color32::from_gray(150);
+    visuals.override_text_color = Some(TEXT);
+    visuals.warn_fg_color = WARNING;
+    visuals.widgets.inactive.weak_bg_fill = Color32::from_gray(160);
+    visuals.widgets.inactive.bg_fill = Color32::from_gray(160);
+    visuals.widgets.hovered.weak_bg_fill = Color32::from_gray(175);
+    visuals.widgets.active.weak_bg_fill = Color32::from_gray(190);
+    visuals.selection.bg_fill = Color32::from_gray(100);
+    ctx.set_visuals(visuals);
+    // Text a participant reads comfortably at 60 cm: 16-point body text.
+    ctx.all_styles_mut(|style| {
+        use egui::{FontFamily, FontId, TextStyle};
+        style.text_styles = [
+            (TextStyle::Heading, FontId::new(26.0, FontFamily::Proportional)),
+            (TextStyle::Body, FontId::new(16.0, FontFamily::Proportional)),
+            (TextStyle::Button, FontId::new(16.0, FontFamily::Proportional)),
+            (TextStyle::Small, FontId::new(13.0, FontFamily::Proportional)),
+            (TextStyle::Monospace, FontId::new(14.0, FontFamily::Monospace)),
+        ]
+        .into();
+        style.spacing.button_padding = egui::vec2(10.0, 5.0);
+    });
 }
 
 impl eframe::App for RunnerApp {
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         self.attach_gpu(frame);
-        if ui.input(|i| i.viewport().close_requested()) && self.close_needs_confirmation() {
-            ui.ctx().send_viewport_cmd(egui::ViewportCommand::CancelClose);
-            self.confirm_quit = true;
-        }
-        egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| self.draw_ui(ui));
+        self.frame_ui(ui);
+    }
+
+    fn raw_input_hook(&mut self, _ctx: &egui::Context, raw_input: &mut egui::RawInput) {
+        self.views.map_input(raw_input);
     }
 }
 
 /// Opens the participant's window and runs until it closes. Returns the rows written.
 pub fn run_window(config: AppConfig, fullscreen: bool) -> Result<RunnerApp, RunnerError> {
-    let title = format!("blurlab: {}", config.definition.name);
+    let no_display = |detail: String| RunnerError::Input {
+        what: "window".into(),
+        message: format!(
+            "no display found{detail}: run in a desktop session, or headless under a virtual X server (`xvfb-run -s \"-screen 0 1920x1080x24\" blurlab run ...`), or simulate participants without a window (`blurlab run --simulate MODEL --seed S`)"
+        ),
+    };
+    if cfg!(target_os = "linux")
+        && std::env::var_os("DISPLAY").is_none()
+        && std::env::var_os("WAYLAND_DISPLAY").is_none()
+    {
+        return Err(no_display(" (DISPLAY and WAYLAND_DISPLAY are unset)".into()));
+    }
+    // The participant sees the window's title: the participant-facing one.
+    let title = config.definition.participant_title.clone();
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_title(title.clone())
@@ -406,7 +603,15 @@ pub fn run_window(config: AppConfig, fullscreen: bool) -> Result<RunnerApp, Runn
         options,
         Box::new(move |_cc| Ok(Box::new(Holder { app: Some(app), out }) as Box<dyn eframe::App>)),
     )
-    .map_err(|e| RunnerError::Input { what: "window".into(), message: format!("cannot open the window: {e}") })?;
+    .map_err(|e| {
+        let text = e.to_string();
+        let lower = text.to_lowercase();
+        if lower.contains("x server") || lower.contains("display") || lower.contains("wayland") {
+            no_display(format!(" ({text})"))
+        } else {
+            RunnerError::Input { what: "window".into(), message: format!("cannot open the window: {text}") }
+        }
+    })?;
     let app =
         shared.lock().map_err(|_| RunnerError::Input { what: "window".into(), message: "state lost".into() })?.take();
     app.ok_or_else(|| RunnerError::Input { what: "window".into(), message: "the window closed before starting".into() })
@@ -422,6 +627,12 @@ impl eframe::App for Holder {
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         if let Some(app) = &mut self.app {
             eframe::App::ui(app, ui, frame);
+        }
+    }
+
+    fn raw_input_hook(&mut self, ctx: &egui::Context, raw_input: &mut egui::RawInput) {
+        if let Some(app) = &mut self.app {
+            eframe::App::raw_input_hook(app, ctx, raw_input);
         }
     }
 }

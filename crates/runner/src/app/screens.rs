@@ -1,115 +1,142 @@
-//! The screens of the participant's window, one method each: start (participant code,
-//! attributes, display check), briefing, briefing example and trial (presentation, then
-//! the answer), and the redraw timing that paces playback.
+//! The participant's screens after the start screen, one method each: briefing, briefing
+//! example, ready (fixation while a trial loads), trial (presentation, then the answer), the
+//! quit question and the short message screens (end of practice, break, done), with the
+//! layout helpers they share and the redraw timing that paces playback.
+//!
+//! Everything is laid out in the view ([`crate::views::Views`]): text in a centred column of
+//! readable width, stimuli centred on the view's centre ([`TrialLayout`]).
 
-use egui::{Color32, Key, RichText, Vec2};
-use study::StimulusId;
+use egui::{Color32, Key, Pos2, Rect, RichText, Vec2};
+use study::experiment::DisplayMode;
 use study::response::Task;
 
-use super::{Phase, RefreshChoice, RunnerApp};
+use super::config::{MARGIN, TrialLayout, text_metrics};
+use super::{Phase, Presenting, RefreshChoice, RunnerApp, WARNING};
 use crate::playback::{Playback, Screen};
 use crate::session::Session;
 
-impl RunnerApp {
-    pub(super) fn start_screen(&mut self, ui: &mut egui::Ui) {
-        let d = &self.config.definition;
-        ui.heading(if d.title.is_empty() { d.name.as_str() } else { d.title.as_str() });
-        ui.horizontal(|ui| {
-            ui.label("Participant code");
-            ui.add(egui::TextEdit::singleline(&mut self.code).hint_text("e.g. P01"));
-        });
-        ui.small("Use the code you were given. Never type your name.");
-        for (a, sel) in d.attributes.iter().zip(self.attributes.iter_mut()) {
-            ui.label(&a.question);
-            ui.horizontal(|ui| {
-                for (i, option) in a.options.iter().enumerate() {
-                    ui.radio_value(sel, Some(i), option);
-                }
-            });
-        }
-        ui.separator();
-        ui.label(format!("Display mode: {}", self.config.display));
-        match &self.calibration {
-            Some(c) => {
-                let ppp = ui.ctx().pixels_per_point();
-                let v = &self.config.viewing;
-                ui.label(format!(
-                    "Calibration: scale {:.3}{} for {:.2} degrees at {} cm",
-                    c.scale,
-                    if c.integer { " (integer)" } else { "" },
-                    c.angle_deg,
-                    v.distance_cm
-                ));
-                if let Some(w) = &c.warning {
-                    ui.colored_label(Color32::YELLOW, format!("Warning: {w}"));
-                }
-                let cm = c.target_px * v.screen_width_cm / f64::from(v.screen_width_px);
-                ui.label(format!("Display check: this bar should measure {cm:.1} cm on the screen."));
-                let (rect, _) =
-                    ui.allocate_exact_size(Vec2::new((c.target_px as f32) / ppp, 12.0), egui::Sense::hover());
-                ui.painter().rect_filled(rect, 0.0, Color32::WHITE);
-            }
-            None => {
-                ui.colored_label(Color32::YELLOW, "Calibration failed: check the screen size and distance.");
-            }
-        }
-        let refresh = self.refresh();
-        match (&refresh.measured, self.config.refresh_hz) {
-            (_, None) if !self.measuring_done => {
-                ui.label("Display refresh: measuring...");
-            }
-            (Some(m), given) => {
-                let text = format!(
-                    "Display refresh: {:.2} Hz measured (median of {} frame intervals, {:.2} ms, spread {:.1}%)",
-                    m.hz(),
-                    m.intervals,
-                    m.interval_ms,
-                    100.0 * m.spread
-                );
-                ui.label(text);
-                if given.is_some() {
-                    ui.label(format!("Pacing uses {:.2} Hz from --refresh-hz.", refresh.hz));
-                } else if !m.is_display_refresh() {
-                    ui.colored_label(
-                        Color32::YELLOW,
-                        format!("Warning: pacing uses {:.0} Hz, {}", refresh.hz, refresh.source),
-                    );
-                }
-            }
-            (None, Some(hz)) => {
-                ui.label(format!("Display refresh: {hz:.2} Hz (--refresh-hz)"));
-            }
-            (None, None) => {
-                ui.colored_label(
-                    Color32::YELLOW,
-                    format!("Warning: pacing uses {:.0} Hz, {}", refresh.hz, refresh.source),
-                );
-            }
-        }
-        ui.separator();
-        let ready = self.ready_to_start();
-        let clicked = ui.add_enabled(ready, egui::Button::new("Start")).clicked();
-        if ready && (clicked || ui.input(|i| i.key_pressed(Key::Enter))) {
-            self.start_session();
-        }
-    }
+/// The widest a column of text gets (points): about 80 characters of body text.
+pub(super) const COLUMN_WIDTH: f32 = 760.0;
+/// The width of each button of a trial's answer row (points).
+const BUTTON_WIDTH: f32 = 210.0;
 
+/// Runs `add` in a column of readable width centred in the view, starting `top` points down.
+pub(super) fn column<R>(ui: &mut egui::Ui, top: f32, add: impl FnOnce(&mut egui::Ui) -> R) -> R {
+    let view = ui.max_rect();
+    let width = COLUMN_WIDTH.min(view.width() - 2.0 * MARGIN).max(100.0);
+    let rect = Rect::from_min_max(
+        Pos2::new(view.center().x - width / 2.0, view.top() + top),
+        Pos2::new(view.center().x + width / 2.0, view.bottom() - MARGIN),
+    );
+    ui.scope_builder(egui::UiBuilder::new().max_rect(rect), add).inner
+}
+
+/// A short screen: a heading and lines, centred in the view, with one button. Returns whether
+/// the button was clicked.
+pub(super) fn message_screen(ui: &mut egui::Ui, heading: &str, lines: &[&str], button: &str) -> bool {
+    let top = (ui.max_rect().height() / 2.0 - 90.0).max(MARGIN);
+    column(ui, top, |ui| {
+        ui.vertical_centered(|ui| {
+            ui.heading(heading);
+            ui.add_space(8.0);
+            for l in lines {
+                ui.label(*l);
+            }
+            ui.add_space(12.0);
+            let clicked = ui.add(egui::Button::new(button).min_size(Vec2::new(BUTTON_WIDTH, 0.0))).clicked();
+            ui.small("or press Space");
+            clicked
+        })
+        .inner
+    })
+}
+
+/// The fixation mark: a small dark cross where the stimulus will be.
+pub(super) fn fixation(ui: &egui::Ui, centre: Pos2) {
+    let stroke = egui::Stroke::new(2.0, Color32::from_gray(30));
+    ui.painter().line_segment([centre - Vec2::new(10.0, 0.0), centre + Vec2::new(10.0, 0.0)], stroke);
+    ui.painter().line_segment([centre - Vec2::new(0.0, 10.0), centre + Vec2::new(0.0, 10.0)], stroke);
+}
+
+/// A centred line of text in `rect` (a label, so that it is part of the accessibility tree).
+fn centred_label(ui: &mut egui::Ui, rect: Rect, text: impl Into<egui::WidgetText>) {
+    ui.put(rect, egui::Label::new(text).halign(egui::Align::Center).selectable(false));
+}
+
+/// The briefing's text with its paragraphs reflowed: the definition's line breaks inside a
+/// paragraph become spaces; blank lines separate paragraphs.
+pub(super) fn paragraphs(text: &str) -> Vec<String> {
+    text.split("\n\n").map(|p| p.split_whitespace().collect::<Vec<_>>().join(" ")).filter(|p| !p.is_empty()).collect()
+}
+
+/// What to wear, for the modes that need glasses (participant-facing).
+pub(super) fn glasses(mode: DisplayMode, stereo: bool) -> Option<&'static str> {
+    if !stereo {
+        return None;
+    }
+    match mode {
+        DisplayMode::Anaglyph => {
+            Some("Please wear the red-cyan glasses: red filter over your LEFT eye, cyan over your right.")
+        }
+        DisplayMode::RowInterleaved => Some("Please wear the polarised 3D glasses that belong to this monitor."),
+        DisplayMode::SbsHalf | DisplayMode::TopBottom => {
+            Some("Please wear the 3D glasses that belong to this display, and keep them on for the whole session.")
+        }
+        DisplayMode::SbsFull => Some("Look into the stereoscope so that each eye sees its own half of the screen."),
+        DisplayMode::Mono => None,
+    }
+}
+
+impl RunnerApp {
     pub(super) fn briefing_screen(&mut self, ui: &mut egui::Ui) {
         let d = &self.config.definition;
-        ui.heading("Briefing");
-        ui.label(d.briefing.text.trim());
-        let mut chosen = None;
-        for (i, e) in d.briefing.examples.iter().enumerate() {
-            ui.horizontal(|ui| {
-                if ui.button(format!("Show example: {}", e.label)).clicked() {
-                    chosen = Some(i);
-                }
-                ui.label(&e.description);
-            });
-        }
-        ui.label(RichText::new(&d.question).strong());
         let practice = self.session.as_ref().and_then(Session::current).is_some_and(|t| t.practice);
-        if ui.button(if practice { "Begin practice" } else { "Begin" }).clicked() {
+        let stereo = d.view == study::View::Stereo;
+        let mut chosen = None;
+        let mut begin = false;
+        column(ui, MARGIN, |ui| {
+            ui.heading(&d.participant_title);
+            if let Some(m) = &self.message {
+                ui.colored_label(WARNING, m);
+            }
+            ui.add_space(6.0);
+            for p in paragraphs(&d.briefing.text) {
+                ui.label(p);
+                ui.add_space(4.0);
+            }
+            if let Some(g) = glasses(self.config.display, stereo) {
+                ui.label(RichText::new(g).strong());
+                ui.add_space(4.0);
+            }
+            let k = &d.keys;
+            let (first, second) = match d.task {
+                Task::TwoAfc => ("the first sequence", "the second"),
+                Task::Match => ("the left candidate", "the right one"),
+            };
+            let mut keys = format!("Answer with the keys {} ({first}) and {} ({second})", k.first, k.second);
+            if d.presentation.replay {
+                keys.push_str(&format!("; {} plays the trial again", k.replay));
+            }
+            keys.push_str(". You may also click the buttons.");
+            ui.label(keys);
+            for (i, e) in d.briefing.examples.iter().enumerate() {
+                ui.horizontal_wrapped(|ui| {
+                    if ui.button(format!("Show example: {}", e.label)).clicked() {
+                        chosen = Some(i);
+                    }
+                    ui.label(&e.description);
+                });
+            }
+            ui.add_space(8.0);
+            ui.label(RichText::new(&d.question).strong());
+            ui.add_space(8.0);
+            ui.vertical_centered(|ui| {
+                let label = if practice { "Begin practice" } else { "Begin" };
+                begin = ui.add(egui::Button::new(label).min_size(Vec2::new(BUTTON_WIDTH, 0.0))).clicked();
+                ui.small("or press Space");
+            });
+        });
+        if begin || (chosen.is_none() && Self::continue_pressed(ui)) {
             self.message = None;
             self.next_trial();
         } else if let Some(i) = chosen {
@@ -120,47 +147,99 @@ impl RunnerApp {
     }
 
     pub(super) fn example_screen(&mut self, ui: &mut egui::Ui, now: f64) {
-        let (scale_points, warning) = match &self.phase {
+        let (line, button) = text_metrics(ui.ctx());
+        let drawn = match &self.phase {
             Phase::Example { index, loaded, .. } => {
                 let id = self.config.definition.briefing.examples[*index].stimulus;
-                let size = loaded.size[&id];
-                let (drawn, warning) = self.drawn_size(ui.ctx(), Task::TwoAfc, &id, size);
-                (drawn.x / size[0].max(1) as f32, warning)
+                self.drawn(ui.ctx(), Task::TwoAfc, loaded.size[&id])
             }
             _ => return,
         };
+        let layout = TrialLayout::new(self.views.view, Task::TwoAfc, drawn.size, line, button);
+        let refresh_hz = RefreshChoice::choose(self.config.refresh_hz, self.measured, self.measuring_done).hz;
+        let views = self.views.clone();
         let Phase::Example { index, loaded, playback } = &mut self.phase else { return };
         let example = &self.config.definition.briefing.examples[*index];
         let id = example.stimulus;
         let (frames, fps) = (loaded.textures[&id].len(), loaded.fps[&id]);
-        let refresh_hz = RefreshChoice::choose(self.config.refresh_hz, self.measured, self.measuring_done).hz;
         let pb = playback.get_or_insert_with(|| Playback::single(frames, fps, 1, refresh_hz, now));
-        ui.heading(&example.label);
-        ui.label(&example.description);
-        let size = loaded.size[&id];
-        let size = Vec2::new(size[0] as f32, size[1] as f32) * scale_points;
-        if let Some(w) = &warning {
-            ui.colored_label(Color32::YELLOW, w);
+        centred_label(ui, layout.notice, RichText::new(format!("Example: {}", example.label)).strong());
+        centred_label(ui, layout.progress, example.description.as_str());
+        if let Some(w) = &drawn.warning {
+            centred_label(ui, layout.labels[0], RichText::new(w).color(WARNING).small());
         }
-        match pb.update(now) {
-            Screen::Frame { frame, .. } => {
-                loaded.textures[&id].show(ui, frame, size);
-                repaint_at(ui.ctx(), pb, now);
-            }
-            _ => {
-                blank(ui, size, "");
-            }
+        // The example plays until the participant goes back.
+        let mut screen = pb.update(now);
+        if screen == Screen::Done {
+            pb.restart(now);
+            screen = pb.update(now);
         }
-        let mut back = false;
-        ui.horizontal(|ui| {
-            if ui.button("Play again").clicked() {
-                pb.restart(now);
-            }
-            back = ui.button("Back to the briefing").clicked();
-        });
-        if back {
+        if let Screen::Frame { frame, .. } = screen {
+            let rects = loaded.textures[&id].paint(ui, frame, layout.slots[0], &views);
+            self.stimulus_rects.extend(rects);
+            repaint_at(ui.ctx(), pb, now);
+        }
+        let again = button_row(ui, layout.buttons, &["Play again", "Back to the briefing"]);
+        if again == Some(0) {
+            pb.restart(now);
+        } else if again == Some(1) || ui.input(|i| i.key_pressed(Key::Backspace)) {
             self.phase = Phase::Briefing;
         }
+    }
+
+    pub(super) fn ready_screen(&mut self, ui: &mut egui::Ui, now: f64) {
+        let pres = &self.config.definition.presentation;
+        let (ready_s, press) = (f64::from(pres.ready_ms) / 1000.0, pres.ready_press);
+        let centre = self.views.view.center();
+        let ctx = ui.ctx().clone();
+        let progress = self.session.as_ref().map(Session::counted_progress).unwrap_or_default();
+        let (line, _) = text_metrics(&ctx);
+        let Phase::Ready(r) = &mut self.phase else { return };
+        let since = *r.since.get_or_insert(now);
+        fixation(ui, centre);
+        let row = |k: f32| Rect::from_center_size(centre + Vec2::new(0.0, k * line), Vec2::new(COLUMN_WIDTH, line));
+        let label = if r.trial.practice {
+            "Practice trial (not counted)".to_owned()
+        } else {
+            format!("Trial {} of {}", progress.0 + 1, progress.1)
+        };
+        centred_label(ui, row(-3.0), label);
+        if r.loaded.is_none() {
+            if let Some(decoded) = Self::poll(&mut r.job, &mut self.message) {
+                let task = r.trial.task;
+                let filter = self.filter(&ctx, task, &decoded);
+                let loaded = Self::upload(&ctx, decoded, filter);
+                let Phase::Ready(r) = &mut self.phase else { return };
+                r.loaded = Some(loaded);
+                ctx.request_repaint();
+                return;
+            }
+            if now - since > ready_s {
+                // Loading outlasts the ready time: say why the trial has not started.
+                ui.put(row(3.0), Self::progress_bar(&r.job, COLUMN_WIDTH / 2.0));
+            }
+            if let Some(m) = &self.message {
+                centred_label(ui, row(5.0), RichText::new(m).color(WARNING));
+            }
+            ctx.request_repaint_after(super::LOADING_REDRAW);
+            return;
+        }
+        let waited = now - since >= ready_s;
+        if press {
+            centred_label(ui, row(3.0), "Press Space when you are ready");
+        }
+        let go = waited && (!press || Self::continue_pressed(ui) || self.config.autopilot.is_some());
+        if !go {
+            if !press {
+                ctx.request_repaint_after(std::time::Duration::from_secs_f64((since + ready_s - now).max(0.0)));
+            }
+            return;
+        }
+        let Phase::Ready(r) = std::mem::replace(&mut self.phase, Phase::Briefing) else { return };
+        let Ready { trial, loaded, .. } = *r;
+        let loaded = loaded.expect("checked above");
+        self.phase = Phase::Presenting(Box::new(Presenting { trial, loaded, playback: None, replays: 0, shown: None }));
+        ctx.request_repaint();
     }
 
     pub(super) fn trial_screen(&mut self, ui: &mut egui::Ui, now: f64) {
@@ -170,17 +249,15 @@ impl RunnerApp {
         let keys = self.config.definition.keys.clone();
         let question = self.config.definition.question.clone();
         let progress = self.session.as_ref().map(|s| s.counted_progress()).unwrap_or_default();
-        let (scale, warning) = match &self.phase {
-            Phase::Presenting(p) => {
-                let id = p.trial.shown[0];
-                let size = p.loaded.size[&id];
-                let (drawn, warning) = self.drawn_size(ui.ctx(), p.trial.task, &id, size);
-                (drawn.x / size[0].max(1) as f32, warning)
-            }
+        let (line, button) = text_metrics(ui.ctx());
+        let drawn = match &self.phase {
+            Phase::Presenting(p) => self.drawn(ui.ctx(), p.trial.task, p.loaded.size[&p.trial.shown[0]]),
             _ => return,
         };
+        let views = self.views.clone();
         let Phase::Presenting(p) = &mut self.phase else { return };
         let trial = p.trial.clone();
+        let layout = TrialLayout::new(views.view, trial.task, drawn.size, line, button);
         let loaded = &p.loaded;
         let pb = p.playback.get_or_insert_with(|| {
             let slots = trial.shown.iter().map(|id| (loaded.textures[id].len(), loaded.fps[id])).collect();
@@ -195,74 +272,66 @@ impl RunnerApp {
             }
             self.last_refresh = Some(now);
             repaint_at(ui.ctx(), pb, now);
+            // The smallest size the stimuli were shown at is what the log records.
+            if p.shown.is_none_or(|(s, _)| drawn.scale < s) {
+                p.shown = Some((drawn.scale, drawn.angle_deg));
+            }
+        }
+        if let Some(m) = &self.message {
+            centred_label(ui, layout.notice, RichText::new(m).color(WARNING));
+        } else if let Some(w) = &drawn.warning {
+            centred_label(ui, layout.notice, RichText::new(w).color(WARNING).small());
         }
         if trial.practice {
-            ui.label(RichText::new("Practice trial (not counted)").italics());
+            centred_label(ui, layout.progress, RichText::new("Practice trial (not counted)").italics());
         } else {
-            ui.label(format!("Trial {} of {}", progress.0 + 1, progress.1));
+            centred_label(ui, layout.progress, format!("Trial {} of {}", progress.0 + 1, progress.1));
         }
-        if let Some(w) = &warning {
-            ui.colored_label(Color32::YELLOW, w);
-        }
-        let size_of = |id: &StimulusId| {
-            let s = loaded.size[id];
-            Vec2::new(s[0] as f32, s[1] as f32) * scale
-        };
-        let labels: Vec<&str> = match trial.task {
-            Task::TwoAfc => vec!["Sequence 1", "Sequence 2"],
-            Task::Match => vec!["Reference", "Candidate A", "Candidate B"],
-        };
-        let draw_slot = |ui: &mut egui::Ui, slot: usize| {
-            let id = &trial.shown[slot];
-            ui.vertical(|ui| {
-                ui.label(labels[slot]);
-                match screen {
-                    Screen::Frame { slot: s, frame } if s == slot => {
-                        loaded.textures[id].show(ui, frame, size_of(id));
-                    }
-                    _ => blank(ui, size_of(id), ""),
-                }
-            });
+        let labels: &[&str] = match trial.task {
+            Task::TwoAfc => &["Sequence 1", "Sequence 2"],
+            Task::Match => &["Reference", "Candidate A", "Candidate B"],
         };
         match trial.task {
             Task::TwoAfc => {
                 // One place on screen, labelled with the sequence playing (or last played).
                 let slot = match screen {
                     Screen::Frame { slot, .. } => slot,
-                    Screen::Gap => 1,
-                    Screen::Done => 1,
+                    Screen::Gap | Screen::Done => 1,
                 };
-                draw_slot(ui, slot);
+                centred_label(ui, layout.labels[0], labels[slot]);
+                if let Screen::Frame { frame, .. } = screen {
+                    let rects = loaded.textures[&trial.shown[slot]].paint(ui, frame, layout.slots[0], &views);
+                    self.stimulus_rects.extend(rects);
+                }
             }
             Task::Match => {
-                draw_slot(ui, 0);
-                ui.horizontal(|ui| {
-                    draw_slot(ui, 1);
-                    draw_slot(ui, 2);
-                });
+                for (slot, rect) in layout.slots.iter().enumerate() {
+                    centred_label(ui, layout.labels[slot], labels[slot]);
+                    if let Screen::Frame { slot: s, frame } = screen
+                        && s == slot
+                    {
+                        let rects = loaded.textures[&trial.shown[slot]].paint(ui, frame, *rect, &views);
+                        self.stimulus_rects.extend(rects);
+                    }
+                }
             }
         }
         if screen != Screen::Done {
             return;
         }
-        ui.label(RichText::new(&question).strong());
+        centred_label(ui, layout.question, RichText::new(&question).strong());
         let (first, second) = match trial.task {
             Task::TwoAfc => ("Sequence 1", "Sequence 2"),
             Task::Match => ("Candidate A", "Candidate B"),
         };
-        let mut choice = None;
-        let mut replay = false;
-        ui.horizontal(|ui| {
-            if ui.button(format!("{first} [{}]", keys.first)).clicked() {
-                choice = Some(0);
-            }
-            if ui.button(format!("{second} [{}]", keys.second)).clicked() {
-                choice = Some(1);
-            }
-            if replay_ok && ui.button(format!("Replay [{}]", keys.replay)).clicked() {
-                replay = true;
-            }
-        });
+        let mut texts = vec![format!("{first} [{}]", keys.first), format!("{second} [{}]", keys.second)];
+        if replay_ok {
+            texts.push(format!("Replay [{}]", keys.replay));
+        }
+        let texts: Vec<&str> = texts.iter().map(String::as_str).collect();
+        let clicked = button_row(ui, layout.buttons, &texts);
+        let mut choice = clicked.filter(|&b| b < 2);
+        let mut replay = clicked == Some(2);
         let pressed = |k: &str| self.key(k).is_some_and(|k| ui.input(|i| i.key_pressed(k)));
         if pressed(&keys.first) {
             choice = Some(0);
@@ -285,6 +354,70 @@ impl RunnerApp {
             ui.ctx().request_repaint();
         }
     }
+
+    /// The question Escape (or the window's close button) asks during a session.
+    pub(super) fn quit_screen(&mut self, ui: &mut egui::Ui, now: f64) {
+        let ctx = ui.ctx().clone();
+        let path = self.session.as_ref().map(|s| s.path().display().to_string());
+        let running = matches!(self.phase, Phase::Ready(_) | Phase::Presenting(_));
+        let top = (ui.max_rect().height() / 2.0 - 90.0).max(MARGIN);
+        let choice = column(ui, top, |ui| {
+            ui.vertical_centered(|ui| {
+                ui.heading("Quit the experiment?");
+                if self.session.is_some() {
+                    ui.label("Every answer so far is saved.");
+                }
+                if running {
+                    ui.label("The trial on screen will be shown again when you resume.");
+                }
+                if let Some(p) = &path {
+                    ui.small(format!("Saved in {p}"));
+                }
+                ui.add_space(12.0);
+                let quit = ui.add(egui::Button::new("Quit").min_size(Vec2::new(BUTTON_WIDTH, 0.0))).clicked();
+                let cont = ui.add(egui::Button::new("Continue").min_size(Vec2::new(BUTTON_WIDTH, 0.0))).clicked();
+                ui.small("Escape continues");
+                (quit, cont)
+            })
+            .inner
+        });
+        match choice {
+            (true, _) => {
+                self.confirm_quit = false;
+                self.phase = super::Phase::Closed;
+                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            }
+            (_, true) => {
+                self.confirm_quit = false;
+                if let Phase::Presenting(p) = &mut self.phase
+                    && let Some(pb) = &mut p.playback
+                    && !pb.is_done()
+                {
+                    pb.restart(now);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+use super::Ready;
+
+/// A row of equal buttons centred in `rect`; the index of the one clicked.
+fn button_row(ui: &mut egui::Ui, rect: Rect, texts: &[&str]) -> Option<usize> {
+    let gap = 16.0;
+    let n = texts.len() as f32;
+    let width = (BUTTON_WIDTH * n + gap * (n - 1.0)).min(rect.width());
+    let each = (width - gap * (n - 1.0)) / n;
+    let mut clicked = None;
+    for (i, t) in texts.iter().enumerate() {
+        let x = rect.center().x - width / 2.0 + i as f32 * (each + gap);
+        let r = Rect::from_min_size(Pos2::new(x, rect.top()), Vec2::new(each, rect.height() - 8.0));
+        if ui.put(r, egui::Button::new(*t)).clicked() {
+            clicked = Some(i);
+        }
+    }
+    clicked
 }
 
 /// How long after a change is due the redraw showing it is asked for (seconds): timers may
@@ -303,10 +436,38 @@ fn repaint_at(ctx: &egui::Context, playback: &Playback, now: f64) {
     }
 }
 
-fn blank(ui: &mut egui::Ui, size: Vec2, text: &str) {
-    let (rect, _) = ui.allocate_exact_size(size, egui::Sense::hover());
-    ui.painter().rect_filled(rect, 0.0, Color32::from_gray(40));
-    if !text.is_empty() {
-        ui.painter().text(rect.center(), egui::Align2::CENTER_CENTER, text, egui::FontId::default(), Color32::GRAY);
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn briefing_paragraphs_are_reflowed() {
+        let text = "You will watch short\nanimations of a ball.\n\n  Watch for\nnoise.  \n\n\n";
+        assert_eq!(paragraphs(text), vec!["You will watch short animations of a ball.", "Watch for noise."]);
+    }
+
+    #[test]
+    fn glasses_are_named_for_every_stereo_mode_that_needs_them() {
+        assert!(glasses(DisplayMode::Anaglyph, true).unwrap().contains("red filter over your LEFT eye"));
+        assert!(glasses(DisplayMode::RowInterleaved, true).unwrap().contains("polarised"));
+        assert_eq!(glasses(DisplayMode::Mono, true), None);
+        assert_eq!(glasses(DisplayMode::Anaglyph, false), None);
+    }
+
+    #[test]
+    fn trial_layout_centres_the_stimuli_in_the_view() {
+        let view = Rect::from_min_size(Pos2::new(0.0, 0.0), Vec2::new(1920.0, 1080.0));
+        let stim = Vec2::new(640.0, 360.0);
+        let two = TrialLayout::new(view, Task::TwoAfc, stim, 20.0, 30.0);
+        assert_eq!(two.slots, vec![Rect::from_center_size(view.center(), stim)]);
+        assert!(two.progress.bottom() <= two.labels[0].top() && two.buttons.top() > two.slots[0].bottom());
+        let m = TrialLayout::new(view, Task::Match, stim, 20.0, 30.0);
+        // The reference centred over its candidates; the group centred in the view.
+        assert_eq!(m.slots[0].center().x, view.center().x);
+        assert_eq!((m.slots[1].right() + m.slots[2].left()) / 2.0, view.center().x);
+        let group = Rect::from_min_max(m.labels[0].min, m.slots[2].max);
+        assert!((group.center().y - view.center().y).abs() < 1e-3, "{group:?}");
+        assert_eq!(m.slots[1].top(), m.slots[2].top());
+        assert!(m.slots[1].top() > m.slots[0].bottom() + 20.0);
     }
 }
