@@ -245,6 +245,13 @@ fn scripted_participant_2afc_practice_replay_quit_and_resume() {
     assert_eq!(h.state().screen(), "briefing", "{:?}", h.state().message());
     let path: PathBuf = h.state().session().unwrap().path().to_owned();
     assert!(path.ends_with("results/ui-2afc/P07/session-1.csv"));
+    // The briefing states the response keys.
+    assert!(
+        h.query_by_label_contains(
+            "Answer with the keys 1 (the first sequence) and 2 (the second); R plays the trial again"
+        )
+        .is_some()
+    );
 
     // Briefing example.
     h.get_by_label("Show example: Noise").click();
@@ -487,6 +494,11 @@ fn matching_trial_in(size: [f32; 2]) -> (bool, f32) {
     let mut h = harness_sized(config_sized(dir.path(), "match", 640, 360), size);
     start(&mut h, "W01");
     h.get_by_label("Begin practice").click();
+    until(&mut h, "presenting");
+    while h.state().stimulus_rects().is_empty() {
+        h.step();
+    }
+    let drawn_width = h.state().stimulus_rects()[0].width();
     until(&mut h, "answer");
     h.run_steps(2);
     let warned = h.query_by_label_contains("The window is too small for the calibrated size").is_some();
@@ -495,10 +507,19 @@ fn matching_trial_in(size: [f32; 2]) -> (bool, f32) {
             .iter()
             .map(|l| h.get_by_label(l).rect().bottom())
             .fold(0.0, f32::max);
-    // The answer still works.
+    // The answer still works, and its row records the scale the stimuli were drawn at (the
+    // calibration is 1 screen pixel per stimulus pixel) and the angle they subtended.
     h.get_by_label("Candidate B [2]").click();
     h.step();
-    assert_eq!(rows(h.state().session().unwrap().path()).len(), 1);
+    let path = h.state().session().unwrap().path().to_owned();
+    let r = rows(&path);
+    assert_eq!(r.len(), 1);
+    let (scale, angle) = (r[0].scale.unwrap(), r[0].visual_angle_deg.unwrap());
+    assert!((scale - f64::from(drawn_width) / 640.0).abs() < 1e-3, "logged {scale}, drawn {drawn_width} px of 640");
+    let viewing = runner::calibration::Viewing::default();
+    assert!((angle - runner::calibration::visual_angle_deg(&viewing, 640, scale)).abs() < 1e-9);
+    // `analyze` and the experimenter's summary judge a row against the calibrated scale.
+    assert_eq!(warned, study::response::off_calibration(scale, 1.0), "scale {scale}");
     (warned, bottom)
 }
 

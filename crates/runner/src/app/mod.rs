@@ -505,7 +505,7 @@ fn resume_note(session: &Session) -> String {
 
 impl RunnerApp {
     /// Draws one frame: the field, the view (once), then each eye's copy of it.
-    pub fn frame_ui(&mut self, ui: &mut egui::Ui) {
+    fn frame_ui(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
         if !self.styled {
             style(&ctx);
