@@ -18,8 +18,13 @@ BLURLAB=${BLURLAB:-target/release/blurlab}
 SET=${SET:-stimuli/out/quick}
 OUT=docs/screens
 work=$(mktemp -d)
-display=:97
-Xvfb "$display" -screen 0 1920x1080x24 -nolisten tcp >/dev/null 2>&1 &
+# A free display number (a server killed without cleaning up leaves its lock behind).
+n=97
+while [ -e "/tmp/.X$n-lock" ]; do n=$((n + 1)); done
+display=:$n
+# -noreset: the server would otherwise reset whenever the last window closes, and a window
+# opening during the reset fails to connect.
+Xvfb "$display" -screen 0 1920x1080x24 -nolisten tcp -noreset >/dev/null 2>&1 &
 xvfb=$!
 app=
 cleanup() {
@@ -92,13 +97,16 @@ EOF
 shot() { import -window root "$OUT/$1.png"; echo "$OUT/$1.png"; }
 key() { xdotool key "$@"; sleep "${PAUSE:-0.8}"; }
 
-# open VIEW TASK MODE: starts the window on a new results folder, full screen.
+# open VIEW TASK MODE [ARGS...]: starts the window on a new results folder, calibrated for
+# this screen (a 1920-pixel, 53.1 cm wide monitor at 60 cm, 60 Hz), or with ARGS instead.
 open() {
   local def
   def=$(experiment "$1" "$2" "$3")
+  shift 3
+  local args=(--screen-width-px 1920 --screen-width-cm 53.1 --distance-cm 60 --refresh-hz 60)
+  [ $# -gt 0 ] && args=("$@")
   rm -rf "$work/results"
-  "$BLURLAB" run "$def" --stimuli "$SET" --participant P01 --results "$work/results" \
-    --screen-width-px 1920 --screen-width-cm 53.1 --distance-cm 60 --refresh-hz 60 \
+  "$BLURLAB" run "$def" --stimuli "$SET" --participant P01 --results "$work/results" "${args[@]}" \
     >"$work/app.log" 2>&1 &
   app=$!
   for _ in $(seq 150); do
@@ -140,6 +148,13 @@ close() { kill "$app" 2>/dev/null || true; wait "$app" 2>/dev/null || true; app=
 ready() { sleep 1.5; key space; }
 # trial KEY: a whole trial answered with KEY (8 loops of two 8-frame sequences and a gap: 5 s).
 trial() { ready; sleep 6.5; key "$1"; }
+
+# The start screen's checks: the default calibration (a 1600-pixel screen) on this 1920-pixel
+# one, and no --refresh-hz on a window without a display refresh (Xvfb): Start stays disabled.
+open mono 2afc mono --distance-cm 60
+sleep 3
+shot 00-start-checks
+close
 
 # A mono 2AFC session, screen by screen.
 open mono 2afc mono

@@ -27,10 +27,17 @@ impl Xvfb {
             skipped(test, "Xvfb is not installed (apt-get install xvfb xauth)");
             return None;
         }
-        // A display number of this process's own, so parallel test binaries do not meet.
-        let display = format!(":{}", 200 + std::process::id() % 500);
+        // A display number of this process's own, so parallel test binaries do not meet, and
+        // not one whose lock a killed server left behind.
+        let mut number = 200 + std::process::id() % 500;
+        while Path::new(&format!("/tmp/.X{number}-lock")).exists() {
+            number += 1;
+        }
+        let display = format!(":{number}");
+        // -noreset: the server resets when its last client leaves, and a window opening during
+        // the reset fails to connect.
         let child = Command::new("Xvfb")
-            .args([display.as_str(), "-screen", "0", "1920x1080x24", "-nolisten", "tcp"])
+            .args([display.as_str(), "-screen", "0", "1920x1080x24", "-nolisten", "tcp", "-noreset"])
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::null())
             .spawn()
@@ -48,7 +55,11 @@ impl Xvfb {
 
 impl Drop for Xvfb {
     fn drop(&mut self) {
-        let _ = self.child.kill();
+        // SIGTERM, so that the server removes its lock file; SIGKILL if that fails.
+        let terminated = Command::new("kill").arg(self.child.id().to_string()).status().is_ok_and(|s| s.success());
+        if !terminated {
+            let _ = self.child.kill();
+        }
         let _ = self.child.wait();
     }
 }
