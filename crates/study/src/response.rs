@@ -569,6 +569,17 @@ mod tests {
         h
     }
 
+    /// The format line, the header of [`header`] and the column row of a log.
+    fn header_text() -> String {
+        let mut text = format!("# {RESPONSES_FORMAT}\n");
+        for (k, v) in &header().fields {
+            text.push_str(&format!("# {k}: {v}\n"));
+        }
+        text.push_str(COLUMNS);
+        text.push('\n');
+        text
+    }
+
     fn row(trial: u32) -> TrialRow {
         TrialRow {
             trial,
@@ -646,12 +657,7 @@ mod tests {
     #[test]
     fn ambiguous_logs_are_errors_naming_the_line_and_a_bom_is_accepted() {
         let path = Path::new("results/x/P01/session-1.csv");
-        let mut valid = format!("# {RESPONSES_FORMAT}\n");
-        for (k, v) in &header().fields {
-            valid.push_str(&format!("# {k}: {v}\n"));
-        }
-        valid.push_str(COLUMNS);
-        valid.push('\n');
+        let mut valid = header_text();
         for t in 0..3 {
             valid.push_str(&row(t).to_line());
             valid.push('\n');
@@ -725,12 +731,7 @@ mod tests {
     #[test]
     fn bad_scale_columns_are_errors_naming_the_line() {
         let path = Path::new("results/x/P01/session-1.csv");
-        let mut valid = format!("# {RESPONSES_FORMAT}\n");
-        for (k, v) in &header().fields {
-            valid.push_str(&format!("# {k}: {v}\n"));
-        }
-        valid.push_str(COLUMNS);
-        valid.push('\n');
+        let mut valid = header_text();
         valid.push_str(&row(0).to_line());
         valid.push('\n');
         let log = SessionLog::parse(path, &valid).unwrap();

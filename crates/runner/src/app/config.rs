@@ -97,18 +97,19 @@ impl AppConfig {
     /// least 800x600 for the start screen.
     pub fn window_size(&self) -> [f32; 2] {
         let scale = self.calibration().map_or(1.0, |c| c.scale) as f32;
-        let (w, h) = self.set.sequences.values().next().map_or((640, 360), |s| {
-            crate::display::output_size(self.display, s.manifest.view, s.manifest.width, s.manifest.height)
-        });
+        // One eye's picture, which is what a view shows and the calibration sizes.
+        let (w, h) =
+            self.set.sequences.values().next().map_or((640, 360), |s| {
+                (crate::display::eye_width(s.manifest.view, s.manifest.width), s.manifest.height)
+            });
         let layout = layout_of(self.definition.task);
         let (columns, rows) = (layout.columns as f32, layout.rows as f32);
-        let content_w = columns * w as f32 * scale + SLOT_GAP * (columns - 1.0) + 2.0 * MARGIN;
+        let view_w = columns * w as f32 * scale + SLOT_GAP * (columns - 1.0) + 2.0 * MARGIN;
         let each_side = (3.0 * NOMINAL_LINE).max(1.5 * NOMINAL_LINE + NOMINAL_BUTTON) + MARGIN;
         let content_h = rows * h as f32 * scale + (SLOT_GAP + NOMINAL_LINE) * (rows - 1.0) + 2.0 * each_side;
         // Side by side at full resolution, the window holds both eyes' views.
-        let views =
-            if self.display == DisplayMode::SbsFull && self.definition.view == study::View::Stereo { 2.0 } else { 1.0 };
-        let content_w = if views > 1.0 { 2.0 * (content_w - w as f32 * scale * columns / 2.0) } else { content_w };
+        let stereo = self.definition.view == study::View::Stereo;
+        let content_w = if self.display == DisplayMode::SbsFull && stereo { 2.0 * view_w } else { view_w };
         [content_w.max(800.0).ceil(), content_h.max(600.0).ceil()]
     }
 }

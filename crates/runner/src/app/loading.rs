@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::thread::JoinHandle;
 
-use egui::{Color32, Rect, TextureHandle, TextureOptions, Vec2};
+use egui::{Color32, Rect, TextureHandle, Vec2};
 use study::StimulusId;
 use study::experiment::DisplayMode;
 
@@ -196,9 +196,11 @@ impl RunnerApp {
         LoadJob { total, progress, handle: Some(handle) }
     }
 
-    /// Hands prepared sequences to the window: images for egui to upload, or textures bound
-    /// for the runner's stimulus pipelines.
-    pub(super) fn upload(ctx: &egui::Context, prepared: Vec<Prepared>, filter: TextureOptions) -> Loaded {
+    /// Hands prepared sequences of a trial (or example) of `task` to the window: images for
+    /// egui to upload, or textures bound for the runner's stimulus pipelines, with the texture
+    /// filter their drawn size calls for ([`RunnerApp::filter`]).
+    pub(super) fn upload(&self, ctx: &egui::Context, task: study::response::Task, prepared: Vec<Prepared>) -> Loaded {
+        let filter = self.filter(ctx, task, &prepared);
         let mut loaded = Loaded { textures: HashMap::new(), fps: HashMap::new(), size: HashMap::new() };
         for d in prepared {
             // One eye's picture: what the view shows and the calibration sizes.

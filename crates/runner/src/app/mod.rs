@@ -415,8 +415,7 @@ impl RunnerApp {
                 let index = *index;
                 screens::fixation(ui, self.views.view.center());
                 if let Some(decoded) = Self::poll(job, &mut self.message) {
-                    let filter = self.filter(&ctx, Task::TwoAfc, &decoded);
-                    let loaded = Self::upload(&ctx, decoded, filter);
+                    let loaded = self.upload(&ctx, Task::TwoAfc, decoded);
                     self.phase = Phase::Example { index, loaded, playback: None };
                     ctx.request_repaint();
                 } else {

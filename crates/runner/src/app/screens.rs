@@ -11,7 +11,7 @@ use study::experiment::DisplayMode;
 use study::response::Task;
 
 use super::config::{MARGIN, TrialLayout, text_metrics};
-use super::{Phase, Presenting, RefreshChoice, RunnerApp, WARNING};
+use super::{Phase, Presenting, Ready, RunnerApp, WARNING};
 use crate::playback::{Playback, Screen};
 use crate::session::Session;
 
@@ -156,7 +156,7 @@ impl RunnerApp {
             _ => return,
         };
         let layout = TrialLayout::new(self.views.view, Task::TwoAfc, drawn.size, line, button);
-        let refresh_hz = RefreshChoice::choose(self.config.refresh_hz, self.measured, self.measuring_done).hz;
+        let refresh_hz = self.refresh().hz;
         let views = self.views.clone();
         let Phase::Example { index, loaded, playback } = &mut self.phase else { return };
         let example = &self.config.definition.briefing.examples[*index];
@@ -207,8 +207,7 @@ impl RunnerApp {
         if r.loaded.is_none() {
             if let Some(decoded) = Self::poll(&mut r.job, &mut self.message) {
                 let task = r.trial.task;
-                let filter = self.filter(&ctx, task, &decoded);
-                let loaded = Self::upload(&ctx, decoded, filter);
+                let loaded = self.upload(&ctx, task, decoded);
                 let Phase::Ready(r) = &mut self.phase else { return };
                 r.loaded = Some(loaded);
                 ctx.request_repaint();
@@ -400,8 +399,6 @@ impl RunnerApp {
         }
     }
 }
-
-use super::Ready;
 
 /// A row of equal buttons centred in `rect`; the index of the one clicked.
 fn button_row(ui: &mut egui::Ui, rect: Rect, texts: &[&str]) -> Option<usize> {
