@@ -263,6 +263,9 @@ mod tests {
         assert_eq!(d.keys.replay, "R");
         assert_eq!(d.all_stimuli().len(), 11);
         assert_eq!(d.attributes[0].options, ["yes", "no"]);
+        // Defaults of the keys the base leaves out.
+        assert_eq!((d.presentation.ready_ms, d.presentation.ready_press), (800, false));
+        assert_eq!(d.participant_title, DEFAULT_PARTICIPANT_TITLE);
     }
 
     fn error_of(from: &str, to: &str) -> String {
@@ -288,6 +291,7 @@ mod tests {
                 "line 23: key `practice.pair`: the two",
             ),
             ("loops = 2", "loops = 0", "line 27: key `presentation.loops`"),
+            ("loops = 2", "loops = 2\nready_ms = 20000", "key `presentation.ready_ms`: 20000 ms is longer than 10 s"),
             ("first = \"ArrowLeft\"", "first = \"Ctrl\"", "line 30: key `keys.first`: `Ctrl` is not a key name"),
             ("second = \"ArrowRight\"", "second = \"ArrowLeft\"", "key `keys.second`: the first, second and replay"),
             ("options = [\"yes\", \"no\"]", "options = [\"yes\"]", "line 36: key `attributes.options`"),
