@@ -9,6 +9,15 @@
 //! judges who judged every pair (complete judges); the Thurstone scale uses every trial.
 //! With [`JudgeUnit::Participant`] the per-judge score table and the bootstrap pool each
 //! participant's sessions instead; triads stay per replicate (they need single judgments).
+//!
+//! **Incomplete designs** (participants judging only some pairs; the rule is in
+//! [`crate::incomplete`]): Kendall's statistics and David's grouping are not computed; the
+//! scale's bootstrap resamples participants and the groups come from the scale
+//! ([`crate::incomplete::scale_and_group`]). One warning says so, not one per pass.
+//!
+//! **Screening** ([`crate::screening`]) scores every participant against the scale fitted
+//! without them, in complete and incomplete designs; [`analyze_experiment_screened`] can
+//! leave the flagged participants' sessions out before the analysis.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -18,11 +27,13 @@ use study::{Factor, StimulusId};
 
 use crate::factors::{LevelPreference, factor_preferences};
 use crate::grouping::{CriticalRange, critical_range, memberships, significance_groups};
+use crate::incomplete::{Design, ScaleGrouping, classify_design, scale_and_group};
 use crate::logs::{ExperimentData, Session};
 use crate::paired::{
     Agreement, PreferenceMatrix, TriadTest, agreement, circular_triads, consistency_zeta, triads_chi_square,
 };
 use crate::scaling::{Scale, ScaleOptions, scale_with_bootstrap};
+use crate::screening::{Screening, screen_observers};
 
 /// What a judge is in the per-judge tables and the bootstrap.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
@@ -89,8 +100,11 @@ pub struct GroupMember {
     pub label: String,
     /// Stimulus id.
     pub id: StimulusId,
-    /// Score.
+    /// Score: votes of the complete judges, or wins over all trials in an incomplete design.
     pub votes: u32,
+    /// Scale value (JOD), when the groups come from the scale (incomplete designs).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
     /// Render cost, when the manifest has it.
     pub cost: Option<Cost>,
 }
@@ -156,6 +170,22 @@ pub struct PairedReport {
     pub recommendation: Option<Recommendation>,
     /// Preference per factor level pair: segment name (`all`, `key=value`) to preferences.
     pub factor_preferences: BTreeMap<String, Vec<LevelPreference>>,
+    /// Whether Kendall's statistics and David's grouping apply ([`crate::incomplete`]).
+    pub design: Design,
+    /// Incomplete designs: how the groups were found from the scale (or why they were not).
+    pub scale_grouping: Option<Result<ScaleGrouping, String>>,
+    /// Observer screening over every participant of the logs (before any exclusion).
+    pub screening: Screening,
+    /// Participants whose sessions were left out (`--exclude-outliers`).
+    pub excluded_participants: Vec<String>,
+}
+
+impl PairedReport {
+    /// Times each pair was shown over every counted trial (symmetric, zero diagonal).
+    pub fn pair_counts(&self) -> Vec<Vec<u32>> {
+        let t = self.matrix_all.t();
+        (0..t).map(|i| (0..t).map(|j| if i == j { 0 } else { self.matrix_all.judged(i, j) }).collect()).collect()
+    }
 }
 
 /// The matching analysis: accuracy per pair of candidate levels.
@@ -190,7 +220,7 @@ pub struct ExperimentReport {
     pub labels: Vec<String>,
     /// Factors that vary across the stimuli.
     pub varying: Vec<Factor>,
-    /// Sessions read.
+    /// Sessions analysed (read, less those `--exclude-outliers` left out).
     pub sessions: Vec<Session>,
     /// Definition file used, if found.
     pub definition: Option<String>,
@@ -241,11 +271,78 @@ pub fn analyze_experiment(
     costs: &BTreeMap<StimulusId, Cost>,
     options: AnalysisOptions,
 ) -> ExperimentReport {
+    analyze_experiment_screened(data, costs, options, false)
+}
+
+/// Each participant's trials as one matrix, by participant code.
+pub fn participant_matrices(data: &ExperimentData) -> Vec<(String, PreferenceMatrix)> {
+    let t = data.stimuli.len();
+    let index: BTreeMap<StimulusId, usize> = data.stimuli.iter().enumerate().map(|(i, s)| (*s, i)).collect();
+    let mut by: BTreeMap<String, PreferenceMatrix> = BTreeMap::new();
+    for trial in &data.trials {
+        let (Some(&a), Some(&b), Some(&w)) =
+            (index.get(&trial.shown[0]), index.get(&trial.shown[1]), index.get(&trial.choice))
+        else {
+            continue;
+        };
+        let participant = &data.sessions[trial.session].participant;
+        by.entry(participant.clone()).or_insert_with(|| PreferenceMatrix::new(t)).add(w, if w == a { b } else { a });
+    }
+    by.into_iter().collect()
+}
+
+/// `data` without the sessions of `participants` (trials renumbered to the kept sessions).
+pub fn without_participants(data: &ExperimentData, participants: &[String]) -> ExperimentData {
+    let mut new_index = vec![None; data.sessions.len()];
+    let mut sessions = Vec::new();
+    for (k, s) in data.sessions.iter().enumerate() {
+        if !participants.contains(&s.participant) {
+            new_index[k] = Some(sessions.len());
+            sessions.push(s.clone());
+        }
+    }
+    let trials = data
+        .trials
+        .iter()
+        .filter_map(|tr| new_index[tr.session].map(|session| crate::logs::Trial { session, ..tr.clone() }))
+        .collect();
+    ExperimentData { sessions, trials, ..data.clone() }
+}
+
+/// [`analyze_experiment`] with observer screening: when `exclude_outliers`, the sessions of
+/// the participants screening flags ([`crate::screening`], over every participant) are left
+/// out before the analysis and named in the report and its warnings.
+pub fn analyze_experiment_screened(
+    data: &ExperimentData,
+    costs: &BTreeMap<StimulusId, Cost>,
+    options: AnalysisOptions,
+    exclude_outliers: bool,
+) -> ExperimentReport {
     let varying = varying_factors(&data.stimuli);
     let labels: Vec<String> = data.stimuli.iter().map(|s| short_label(s, &varying)).collect();
     let mut warnings = data.warnings.clone();
+    let mut sessions = data.sessions.clone();
     let (paired, matching) = match data.task {
-        Task::TwoAfc => (Some(analyze_paired(data, &labels, &varying, costs, options, &mut warnings)), None),
+        Task::TwoAfc => {
+            let screening = screen_observers(&participant_matrices(data), options.scale.prior_sd);
+            let excluded = if exclude_outliers { screening.flagged.clone() } else { Vec::new() };
+            let kept;
+            let analysed = if excluded.is_empty() {
+                data
+            } else {
+                warnings.push(format!(
+                    "--exclude-outliers: left out the sessions of {} flagged participant(s): {}",
+                    excluded.len(),
+                    excluded.join(", ")
+                ));
+                kept = without_participants(data, &excluded);
+                sessions = kept.sessions.clone();
+                &kept
+            };
+            let mut p = analyze_paired(analysed, &labels, &varying, costs, options, &mut warnings, screening);
+            p.excluded_participants = excluded;
+            (Some(p), None)
+        }
         Task::Match => (None, Some(analyze_matching(data))),
     };
     ExperimentReport {
@@ -255,7 +352,7 @@ pub fn analyze_experiment(
         stimuli: data.stimuli.clone(),
         labels,
         varying,
-        sessions: data.sessions.clone(),
+        sessions,
         definition: data.definition.as_ref().map(|p| p.display().to_string()),
         experiment_sha256: data.experiment_sha256.clone(),
         stimulus_set_sha256: data.stimulus_set_sha256.clone(),
@@ -273,6 +370,7 @@ fn analyze_paired(
     costs: &BTreeMap<StimulusId, Cost>,
     options: AnalysisOptions,
     warnings: &mut Vec<String>,
+    screening: Screening,
 ) -> PairedReport {
     let t = data.stimuli.len();
     let index: BTreeMap<StimulusId, usize> = data.stimuli.iter().enumerate().map(|(i, s)| (*s, i)).collect();
@@ -291,14 +389,21 @@ fn analyze_paired(
         all.add(winner, loser);
     }
     let pairs = (t * (t - 1) / 2) as u32;
+    let is_complete_pass = |m: &PreferenceMatrix| (0..t).all(|i| (i + 1..t).all(|j| m.judged(i, j) == 1));
+    let (complete_passes, complete_trials) = replicates
+        .values()
+        .filter(|m| is_complete_pass(m))
+        .fold((0u32, 0u64), |(n, trials), m| (n + 1, trials + u64::from(m.total())));
+    let design = classify_design(complete_passes, replicates.len(), complete_trials, u64::from(all.total()));
+    let incomplete = design.is_incomplete();
     let mut judges = Vec::new();
     let mut complete_matrix = PreferenceMatrix::new(t);
     let mut complete = 0u32;
     let mut zetas = Vec::new();
     for ((session, k), m) in &replicates {
         let s = &data.sessions[*session];
-        let is_complete = (0..t).all(|i| (i + 1..t).all(|j| m.judged(i, j) == 1));
-        let (triads, zeta, test) = if is_complete {
+        let is_complete = is_complete_pass(m);
+        let (triads, zeta, test) = if is_complete && !incomplete {
             complete += 1;
             complete_matrix.add_matrix(m);
             let d = circular_triads(m).ok();
@@ -318,7 +423,7 @@ fn analyze_paired(
             zeta,
             triad_test: test,
         });
-        if !is_complete {
+        if !is_complete && !incomplete {
             warnings.push(format!(
                 "{} replicate {k}: judged {} of {pairs} pairs; left out of triads, agreement and grouping",
                 s.path.display(),
@@ -363,16 +468,39 @@ fn analyze_paired(
         ),
     };
     let mean_zeta = (!zetas.is_empty()).then(|| zetas.iter().sum::<f64>() / zetas.len() as f64);
-    let agreement = if complete >= 2 {
+    let agreement = if let Design::Incomplete { reason } = &design {
+        Err(format!("incomplete design: {reason}"))
+    } else if complete >= 2 {
         agreement(&complete_matrix).map_err(|e| e.to_string())
     } else {
         Err(format!("{complete} complete judges; agreement needs at least 2"))
     };
+    let critical =
+        if complete >= 1 && t >= 2 && !incomplete { critical_range(t, complete, options.alpha).ok() } else { None };
+    // Incomplete designs: the scale with participant resamples, and groups from it.
+    let (scale, scale_grouping) = if incomplete {
+        let participants: Vec<PreferenceMatrix> = participant_matrices(data).into_iter().map(|(_, m)| m).collect();
+        let (scale, grouping) = scale_and_group(&all, &participants, options.scale, options.alpha);
+        if let Design::Incomplete { reason } = &design {
+            warnings.push(format!(
+                "incomplete design ({reason}): {} passes judged only some pairs; Kendall's statistics and David's grouping are not reported, the Thurstone scale (bootstrap over {} participants) groups the stimuli instead",
+                replicates.len() as u32 - complete_passes,
+                participants.len()
+            ));
+        }
+        (scale, Some(grouping.map_err(|e| e.to_string())))
+    } else {
+        (scale_with_bootstrap(&all, &units, options.scale), None)
+    };
     let votes = complete_matrix.scores();
-    let critical = if complete >= 1 && t >= 2 { critical_range(t, complete, options.alpha).ok() } else { None };
-    let index_groups = critical
-        .map(|c| significance_groups(&votes.iter().map(|&v| f64::from(v)).collect::<Vec<_>>(), c.ceil_rc as f64))
-        .unwrap_or_default();
+    let member_votes = if incomplete { all.scores() } else { votes.clone() };
+    let index_groups = match &scale_grouping {
+        Some(Ok(g)) => g.groups.clone(),
+        Some(Err(_)) => Vec::new(),
+        None => critical
+            .map(|c| significance_groups(&votes.iter().map(|&v| f64::from(v)).collect::<Vec<_>>(), c.ceil_rc as f64))
+            .unwrap_or_default(),
+    };
     let member_of = memberships(t, &index_groups);
     let cost_of = |i: usize| costs.get(&data.stimuli[i]).copied();
     let top_reference = index_groups.first().and_then(|g| {
@@ -391,7 +519,8 @@ fn analyze_paired(
                     .map(|&i| GroupMember {
                         label: labels[i].clone(),
                         id: data.stimuli[i],
-                        votes: votes[i],
+                        votes: member_votes[i],
+                        scale: incomplete.then(|| scale.scores[i]),
                         cost: cost_of(i),
                     })
                     .collect(),
@@ -417,7 +546,6 @@ fn analyze_paired(
         }),
         _ => None,
     };
-    let scale = scale_with_bootstrap(&all, &units, options.scale);
     // Factor preferences, overall and per segment.
     let mut factor_prefs = BTreeMap::new();
     let trials_of = |sessions: Option<&[usize]>| {
@@ -449,6 +577,10 @@ fn analyze_paired(
         scale,
         recommendation,
         factor_preferences: factor_prefs,
+        design,
+        scale_grouping,
+        screening,
+        excluded_participants: Vec::new(),
     }
 }
 

@@ -2,7 +2,9 @@
 //! significance groups marked, the shutter x sampling grid coloured by group (thesis
 //! figures 5.6 and 6.8), the matching accuracy heat map (figure 5.5), preference bars with
 //! standard-error bars per factor and segment (figures 5.4 and 6.5), and the Thurstone scale
-//! with confidence intervals. Text uses the Ubuntu Light font bundled by the
+//! with confidence intervals, the counts of the pairs shown (a heat map with a colour bar,
+//! readable at 225 x 225) and the observer screening (one point per participant with the
+//! threshold line). Text uses the Ubuntu Light font bundled by the
 //! `epaint_default_fonts` crate (no system fonts). Files are written atomically.
 
 use std::path::{Path, PathBuf};
@@ -515,9 +517,17 @@ pub struct ScaleFigure {
     pub upper: Vec<f64>,
 }
 
+impl ScaleFigure {
+    /// Pixels per stimulus: room for a label each up to 30 stimuli, else narrow columns.
+    fn column(&self) -> u32 {
+        if self.labels.len() <= 30 { 70 } else { 8 }
+    }
+}
+
 impl Figure for ScaleFigure {
     fn size(&self) -> (u32, u32) {
-        ((180 + 70 * self.labels.len() as u32).max(640), 460)
+        let n = self.labels.len() as u32;
+        ((180 + self.column() * n).max(640), if n <= 30 { 460 } else { 560 })
     }
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         let n = self.labels.len();
@@ -532,6 +542,7 @@ impl Figure for ScaleFigure {
             .caption(&self.title, text_style(20.0))
             .margin(12)
             .y_label_area_size(55)
+            .x_label_area_size(if n <= 30 { 0 } else { 100 })
             .build_cartesian_2d(-0.6..n as f64 - 0.4, lo - pad..hi)
             .map_err(err)?;
         chart
@@ -553,8 +564,250 @@ impl Figure for ScaleFigure {
                         .map_err(err)?;
                 }
             }
-            chart.draw_series([Circle::new((x, self.scores[i]), 6, group_colour(0).filled())]).map_err(err)?;
-            chart.draw_series([Text::new(self.labels[i].clone(), (x, lo - pad * 0.5), centred(13.0))]).map_err(err)?;
+            let radius = if n <= 30 { 6 } else { 3 };
+            chart.draw_series([Circle::new((x, self.scores[i]), radius, group_colour(0).filled())]).map_err(err)?;
+            if n <= 30 {
+                chart
+                    .draw_series([Text::new(self.labels[i].clone(), (x, lo - pad * 0.5), centred(13.0))])
+                    .map_err(err)?;
+            } else if k % n.div_ceil(60) == 0 {
+                // Every k-th label, rotated below the axis (sorted by value, best first).
+                let (px, py) = chart.backend_coord(&(x, lo - pad));
+                root.draw(&Text::new(
+                    self.labels[i].clone(),
+                    (px, py + 4),
+                    text_style(10.0).transform(FontTransform::Rotate90).pos(Pos::new(HPos::Left, VPos::Center)),
+                ))
+                .map_err(err)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A colour on a perceptually ordered ramp (viridis, by its 5 anchor colours), `v` in [0, 1].
+pub fn ramp_colour(v: f64) -> RGBColor {
+    const ANCHORS: [(f64, f64, f64); 5] =
+        [(68.0, 1.0, 84.0), (59.0, 82.0, 139.0), (33.0, 145.0, 140.0), (94.0, 201.0, 98.0), (253.0, 231.0, 37.0)];
+    let x = if v.is_finite() { v.clamp(0.0, 1.0) * 4.0 } else { 0.0 };
+    let k = (x.floor() as usize).min(3);
+    let f = x - k as f64;
+    let (a, b) = (ANCHORS[k], ANCHORS[k + 1]);
+    let mix = |p: f64, q: f64| (p + (q - p) * f).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// How many times each pair was shown: a symmetric `t x t` heat map, light grey where a pair
+/// was never shown, a colour bar on the right. Labels name every stimulus up to 40 of them,
+/// else every k-th (no per-cell numbers).
+#[derive(Debug, Clone)]
+pub struct PairCountFigure {
+    /// Title.
+    pub title: String,
+    /// Labels of rows and columns.
+    pub labels: Vec<String>,
+    /// Times shown per pair (symmetric).
+    pub counts: Vec<Vec<u32>>,
+}
+
+impl PairCountFigure {
+    fn cell(&self) -> u32 {
+        (900 / self.labels.len().max(1) as u32).clamp(3, 40)
+    }
+}
+
+impl Figure for PairCountFigure {
+    fn size(&self) -> (u32, u32) {
+        let side = self.cell() * self.labels.len() as u32;
+        (side + 330, side + 200)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let n = self.labels.len();
+        let cell = self.cell() as i32;
+        let side = cell * n as i32;
+        let (x0, y0) = (150, 60);
+        let max = self.counts.iter().flatten().copied().max().unwrap_or(0).max(1);
+        let shown = self.counts.iter().flatten().filter(|&&c| c > 0).count() / 2;
+        let pairs = n * n.saturating_sub(1) / 2;
+        root.draw(&Text::new(format!("{} ({shown} of {pairs} pairs shown)", self.title), (x0, 18), text_style(20.0)))
+            .map_err(err)?;
+        root.draw(&Rectangle::new([(x0, y0), (x0 + side, y0 + side)], RGBColor(235, 235, 235).filled()))
+            .map_err(err)?;
+        for (i, row) in self.counts.iter().enumerate() {
+            for (j, &c) in row.iter().enumerate() {
+                if c == 0 {
+                    continue;
+                }
+                let v = f64::from(c) / f64::from(max);
+                let (x, y) = (x0 + cell * j as i32, y0 + cell * i as i32);
+                root.draw(&Rectangle::new([(x, y), (x + cell, y + cell)], ramp_colour(v).filled())).map_err(err)?;
+            }
+        }
+        root.draw(&Rectangle::new([(x0, y0), (x0 + side, y0 + side)], BLACK.stroke_width(1))).map_err(err)?;
+        let step = n.div_ceil(40).max(1);
+        let size = if n <= 20 { 13.0 } else { 11.0 };
+        for k in (0..n).step_by(step) {
+            let centre = x0 + cell * k as i32 + cell / 2;
+            root.draw(&Text::new(
+                self.labels[k].clone(),
+                (x0 - 6, y0 + cell * k as i32 + cell / 2),
+                text_style(size).pos(Pos::new(HPos::Right, VPos::Center)),
+            ))
+            .map_err(err)?;
+            root.draw(&Text::new(
+                self.labels[k].clone(),
+                (centre, y0 + side + 6),
+                text_style(size).transform(FontTransform::Rotate90).pos(Pos::new(HPos::Left, VPos::Center)),
+            ))
+            .map_err(err)?;
+        }
+        // Colour bar.
+        let (bx, bw) = (x0 + side + 40, 24);
+        let steps = 100;
+        for k in 0..steps {
+            let v0 = f64::from(k) / f64::from(steps);
+            let ya = y0 + side - (f64::from(side) * v0) as i32;
+            let yb = y0 + side - (f64::from(side) * (v0 + 1.0 / f64::from(steps))) as i32;
+            // One pixel of overlap so rounding leaves no gaps.
+            root.draw(&Rectangle::new(
+                [(bx, yb - 1), (bx + bw, ya)],
+                ramp_colour(v0 + 0.5 / f64::from(steps)).filled(),
+            ))
+            .map_err(err)?;
+        }
+        root.draw(&Rectangle::new([(bx, y0), (bx + bw, y0 + side)], BLACK.stroke_width(1))).map_err(err)?;
+        let ticks = max.min(5);
+        for k in 0..=ticks {
+            let value = (f64::from(max) * f64::from(k) / f64::from(ticks)).round();
+            let y = y0 + side - (f64::from(side) * value / f64::from(max)) as i32;
+            root.draw(&PathElement::new(vec![(bx + bw, y), (bx + bw + 5, y)], BLACK.stroke_width(1))).map_err(err)?;
+            root.draw(&Text::new(
+                format!("{value:.0}"),
+                (bx + bw + 8, y),
+                text_style(13.0).pos(Pos::new(HPos::Left, VPos::Center)),
+            ))
+            .map_err(err)?;
+        }
+        root.draw(&Text::new("times shown", (bx - 4, y0 - 14), text_style(13.0))).map_err(err)?;
+        root.draw(&Rectangle::new([(bx, y0 + side + 20), (bx + bw, y0 + side + 36)], RGBColor(235, 235, 235).filled()))
+            .map_err(err)?;
+        root.draw(&Text::new(
+            "never",
+            (bx + bw + 8, y0 + side + 28),
+            text_style(13.0).pos(Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(err)?;
+        Ok(())
+    }
+}
+
+/// Observer screening: each participant's mean log-10 likelihood per trial under the scale
+/// fitted without them (sorted, lowest first), the flagging threshold as a dashed red line,
+/// flagged participants in red.
+#[derive(Debug, Clone)]
+pub struct ScreeningFigure {
+    /// Title.
+    pub title: String,
+    /// Participant codes.
+    pub participants: Vec<String>,
+    /// Their statistic.
+    pub values: Vec<f64>,
+    /// Whether each is flagged.
+    pub flagged: Vec<bool>,
+    /// Values below this are flagged.
+    pub threshold: f64,
+    /// First quartile (drawn as a grey line).
+    pub q1: f64,
+}
+
+impl Figure for ScreeningFigure {
+    fn size(&self) -> (u32, u32) {
+        ((220 + 36 * self.participants.len() as u32).max(640), 480)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let n = self.participants.len();
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| self.values[a].total_cmp(&self.values[b]));
+        let finite: Vec<f64> =
+            self.values.iter().copied().chain([self.threshold, self.q1]).filter(|v| v.is_finite()).collect();
+        let lo = finite.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = if lo.is_finite() && hi > lo { (lo, hi) } else { (-1.0, 0.0) };
+        let pad = (hi - lo) * 0.08;
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, text_style(18.0))
+            .margin(12)
+            .x_label_area_size(60)
+            .y_label_area_size(70)
+            .build_cartesian_2d(-0.6..n as f64 - 0.4, lo - pad..hi + pad)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(0)
+            .y_desc("mean log10 likelihood per trial")
+            .y_label_formatter(&|v| format!("{v:.2}"))
+            .label_style(text_style(13.0))
+            .axis_desc_style(text_style(14.0))
+            .draw()
+            .map_err(err)?;
+        let x_range = (-0.6, n as f64 - 0.4);
+        if self.q1.is_finite() {
+            chart
+                .draw_series([PathElement::new(
+                    vec![(x_range.0, self.q1), (x_range.1, self.q1)],
+                    BLACK.mix(0.6).stroke_width(1),
+                )])
+                .map_err(err)?;
+            chart
+                .draw_series([Text::new(
+                    "Q1",
+                    (x_range.1 - 0.1, self.q1),
+                    text_style(12.0).pos(Pos::new(HPos::Right, VPos::Bottom)),
+                )])
+                .map_err(err)?;
+        }
+        if self.threshold.is_finite() {
+            let red = RGBColor(204, 0, 0);
+            let mut x = x_range.0;
+            while x < x_range.1 {
+                let end = (x + 0.25).min(x_range.1);
+                chart
+                    .draw_series([PathElement::new(
+                        vec![(x, self.threshold), (end, self.threshold)],
+                        red.stroke_width(2),
+                    )])
+                    .map_err(err)?;
+                x += 0.4;
+            }
+            chart
+                .draw_series([Text::new(
+                    format!("threshold: Q1 - {} IQR", crate::screening::OUTLIER_DISTANCE),
+                    (x_range.1 - 0.1, self.threshold),
+                    text_style(12.0).color(&red).pos(Pos::new(HPos::Right, VPos::Bottom)),
+                )])
+                .map_err(err)?;
+        }
+        for (k, &i) in order.iter().enumerate() {
+            let x = k as f64;
+            let v = self.values[i];
+            if !v.is_finite() {
+                continue;
+            }
+            let colour = if self.flagged[i] { RGBColor(204, 0, 0) } else { group_colour(0) };
+            chart
+                .draw_series([PathElement::new(vec![(x, lo - pad), (x, v)], colour.mix(0.35).stroke_width(2))])
+                .map_err(err)?;
+            chart.draw_series([Circle::new((x, v), 6, colour.filled())]).map_err(err)?;
+        }
+        for (k, &i) in order.iter().enumerate() {
+            let (px, py) = chart.backend_coord(&(k as f64, lo - pad));
+            root.draw(&Text::new(
+                self.participants[i].clone(),
+                (px, py + 6),
+                text_style(12.0).transform(FontTransform::Rotate90).pos(Pos::new(HPos::Left, VPos::Center)),
+            ))
+            .map_err(err)?;
         }
         Ok(())
     }

@@ -1,6 +1,10 @@
 //! The report folder: `report.md` (tables), `report.json` (every number, format
 //! `blurlab-report/1`) and the figures as PNG and SVG. Render costs come from the stimulus
 //! set's manifests (`index.json` and each sequence's `manifest.json`).
+//!
+//! Incomplete designs ([`crate::incomplete`]) say so in place of Kendall's statistics and
+//! list the scale's groups; every 2AFC experiment gets the heat map of the pairs shown
+//! (`EXP-pairs`) and the observer screening (`EXP-screening`, [`crate::screening`]).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -10,11 +14,15 @@ use serde::Serialize;
 use study::manifest::{SequenceManifest, SetIndex};
 use study::{Factor, StimulusId};
 
-use crate::experiment::{AnalysisOptions, Cost, ExperimentReport, analyze_experiment};
+use crate::experiment::{
+    AnalysisOptions, Cost, ExperimentReport, Group, GroupMember, PairedReport, Recommendation,
+    analyze_experiment_screened,
+};
+use crate::incomplete::Design;
 use crate::logs::{LoadOptions, LogError, load_experiments};
 use crate::plots::{
-    Figure, GridCell, GridFigure, HeatmapFigure, PlotError, PreferenceFigure, ScaleFigure, SideBySide, VotesFigure,
-    save_figure,
+    Figure, GridCell, GridFigure, HeatmapFigure, PairCountFigure, PlotError, PreferenceFigure, ScaleFigure,
+    ScreeningFigure, SideBySide, VotesFigure, save_figure,
 };
 
 /// Format tag of report.json.
@@ -122,6 +130,18 @@ pub fn build_report(
     experiments_dir: Option<&Path>,
     options: AnalysisOptions,
 ) -> Result<Report, ReportError> {
+    build_report_screened(results, manifest, experiments_dir, options, false)
+}
+
+/// [`build_report`]; with `exclude_outliers` the sessions of the participants observer
+/// screening flags are left out of each 2AFC experiment's analysis (`analyze --exclude-outliers`).
+pub fn build_report_screened(
+    results: &[PathBuf],
+    manifest: Option<&Path>,
+    experiments_dir: Option<&Path>,
+    options: AnalysisOptions,
+    exclude_outliers: bool,
+) -> Result<Report, ReportError> {
     let set = manifest.map(load_set).transpose()?;
     let costs = set.as_ref().map(|s| s.costs.clone()).unwrap_or_default();
     let load = LoadOptions {
@@ -145,7 +165,8 @@ pub fn build_report(
             }
         }
     }
-    let experiments: Vec<ExperimentReport> = data.iter().map(|d| analyze_experiment(d, &costs, options)).collect();
+    let experiments: Vec<ExperimentReport> =
+        data.iter().map(|d| analyze_experiment_screened(d, &costs, options, exclude_outliers)).collect();
     let mut pairs = Vec::new();
     for e in &experiments {
         if let Some(rest) = e.name.strip_prefix("mono-") {
@@ -166,7 +187,7 @@ pub fn build_report(
 }
 
 fn votes_figure(e: &ExperimentReport) -> Option<VotesFigure> {
-    let p = e.paired.as_ref()?;
+    let p = e.paired.as_ref().filter(|p| !p.design.is_incomplete())?;
     Some(VotesFigure {
         title: format!("{}: votes", e.name),
         labels: e.labels.clone(),
@@ -182,7 +203,7 @@ fn votes_figure(e: &ExperimentReport) -> Option<VotesFigure> {
 
 /// The shutter x sampling grid when exactly those two factors vary.
 fn grid_figure(e: &ExperimentReport) -> Option<GridFigure> {
-    let p = e.paired.as_ref()?;
+    let p = e.paired.as_ref().filter(|p| !p.design.is_incomplete())?;
     if e.varying != [Factor::Shutter, Factor::Samples] {
         return None;
     }
@@ -242,6 +263,21 @@ pub fn write_report(report: &mut Report, dir: &Path) -> Result<PathBuf, ReportEr
                 upper: p.scale.upper.clone(),
             };
             save(save_figure(&fig, dir, &format!("{}-scale", e.name)))?;
+            let fig = PairCountFigure {
+                title: format!("{}: times each pair was shown", e.name),
+                labels: e.labels.clone(),
+                counts: p.pair_counts(),
+            };
+            save(save_figure(&fig, dir, &format!("{}-pairs", e.name)))?;
+            let fig = ScreeningFigure {
+                title: format!("{}: observer screening (leave one participant out)", e.name),
+                participants: p.screening.observers.iter().map(|o| o.participant.clone()).collect(),
+                values: p.screening.observers.iter().map(|o| o.log10_likelihood).collect(),
+                flagged: p.screening.observers.iter().map(|o| o.flagged).collect(),
+                threshold: p.screening.threshold,
+                q1: p.screening.q1,
+            };
+            save(save_figure(&fig, dir, &format!("{}-screening", e.name)))?;
             if p.factor_preferences.get("all").is_some_and(|v| !v.is_empty()) {
                 let series = p.factor_preferences.iter().map(|(k, v)| (k.clone(), v.clone())).collect::<Vec<_>>();
                 // "all" first.
@@ -332,6 +368,19 @@ pub fn markdown(report: &Report) -> String {
         );
         if let Some(p) = &e.paired {
             let _ = writeln!(s, "**Judges.** {}\n", p.judges_statement);
+            if !p.excluded_participants.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "**Excluded** (`--exclude-outliers`): the sessions of {} were left out of this analysis; observer screening below was computed before.\n",
+                    p.excluded_participants.join(", ")
+                );
+            }
+            let incomplete = p.design.is_incomplete();
+            if incomplete {
+                incomplete_markdown(&mut s, e, p);
+            }
+        }
+        if let Some(p) = e.paired.as_ref().filter(|p| !p.design.is_incomplete()) {
             let _ = writeln!(s, "![votes]({}-votes.png)\n", e.name);
             let _ = writeln!(
                 s,
@@ -373,39 +422,10 @@ pub fn markdown(report: &Report) -> String {
                 }
             }
             if !p.groups.is_empty() {
-                let _ = writeln!(s, "| group | members (votes, wall s) | cheapest | saving vs most expensive of G1 |");
-                let _ = writeln!(s, "| --- | --- | --- | ---: |");
-                for g in &p.groups {
-                    let members = g
-                        .members
-                        .iter()
-                        .map(|m| match m.cost {
-                            Some(c) => format!("{} ({}, {:.1} s)", m.label, m.votes, c.wall_seconds),
-                            None => format!("{} ({})", m.label, m.votes),
-                        })
-                        .collect::<Vec<_>>()
-                        .join(", ");
-                    let _ = writeln!(
-                        s,
-                        "| G{} | {} | {} | {} |",
-                        g.number,
-                        members,
-                        g.cheapest.as_deref().unwrap_or("-"),
-                        g.saving_vs_top_most_expensive.map_or("-".into(), |v| format!("{:.1} %", v * 100.0))
-                    );
-                }
-                let _ = writeln!(s);
+                groups_table(&mut s, &p.groups, "votes");
             }
             if let Some(r) = &p.recommendation {
-                let _ = writeln!(
-                    s,
-                    "**Recommendation.** {} ({:.1} s) is perceptually equivalent to {} ({:.1} s): render it instead and save {:.1} % of the cost.\n",
-                    r.cheapest,
-                    r.cheapest_wall_seconds,
-                    r.reference,
-                    r.reference_wall_seconds,
-                    r.saving * 100.0
-                );
+                recommendation_text(&mut s, r);
             }
             if e.varying == [Factor::Shutter, Factor::Samples] {
                 let _ = writeln!(s, "![grid]({}-grid.png)\n", e.name);
@@ -454,6 +474,8 @@ pub fn markdown(report: &Report) -> String {
                 );
             }
             let _ = writeln!(s);
+        }
+        if let Some(p) = &e.paired {
             if p.factor_preferences.get("all").is_some_and(|v| !v.is_empty()) {
                 let _ = writeln!(s, "**Preference per factor** (chi-square against 50 : 50, 1 df):\n");
                 let _ = writeln!(s, "| segment | levels | n | first level | second level | SE | chi-square | p |");
@@ -478,9 +500,14 @@ pub fn markdown(report: &Report) -> String {
             }
             let _ = writeln!(
                 s,
-                "**Scale.** Thurstone Case V (MAP, prior sd {} JOD), {} bootstrap resamples over judges, seed {}: ![scale]({}-scale.png)\n",
-                p.scale.options.prior_sd, p.scale.options.resamples, p.scale.options.seed, e.name
+                "**Scale.** Thurstone Case V (MAP, prior sd {} JOD), {} bootstrap resamples over {}, seed {}: ![scale]({}-scale.png)\n",
+                p.scale.options.prior_sd,
+                p.scale.options.resamples,
+                if p.design.is_incomplete() { "participants" } else { "judges" },
+                p.scale.options.seed,
+                e.name
             );
+            pairs_and_screening_markdown(&mut s, e, p);
         }
         if let Some(m) = &e.matching {
             let _ = writeln!(s, "**Matching accuracy**: {:.2} % of {} trials.\n", m.overall * 100.0, m.trials);
@@ -517,6 +544,142 @@ pub fn markdown(report: &Report) -> String {
     }
     let _ = writeln!(s, "Figures: {}", report.figures.join(", "));
     s
+}
+
+fn member_text(m: &GroupMember) -> String {
+    match (m.scale, m.cost) {
+        (Some(v), Some(c)) => format!("{} ({v:.2} JOD, {:.1} s)", m.label, c.wall_seconds),
+        (Some(v), None) => format!("{} ({v:.2} JOD)", m.label),
+        (None, Some(c)) => format!("{} ({}, {:.1} s)", m.label, m.votes, c.wall_seconds),
+        (None, None) => format!("{} ({})", m.label, m.votes),
+    }
+}
+
+fn groups_table(s: &mut String, groups: &[Group], score: &str) {
+    let _ = writeln!(s, "| group | members ({score}, wall s) | cheapest | saving vs most expensive of G1 |");
+    let _ = writeln!(s, "| --- | --- | --- | ---: |");
+    for g in groups {
+        let members = g.members.iter().map(member_text).collect::<Vec<_>>().join(", ");
+        let _ = writeln!(
+            s,
+            "| G{} | {} | {} | {} |",
+            g.number,
+            members,
+            g.cheapest.as_deref().unwrap_or("-"),
+            g.saving_vs_top_most_expensive.map_or("-".into(), |v| format!("{:.1} %", v * 100.0))
+        );
+    }
+    let _ = writeln!(s);
+}
+
+fn recommendation_text(s: &mut String, r: &Recommendation) {
+    let _ = writeln!(
+        s,
+        "**Recommendation.** {} ({:.1} s) is perceptually equivalent to {} ({:.1} s): render it instead and save {:.1} % of the cost.\n",
+        r.cheapest,
+        r.cheapest_wall_seconds,
+        r.reference,
+        r.reference_wall_seconds,
+        r.saving * 100.0
+    );
+}
+
+/// The incomplete design's statement, scale table and scale groups (in place of the vote
+/// table, David's grouping and Kendall's statistics).
+fn incomplete_markdown(s: &mut String, e: &ExperimentReport, p: &PairedReport) {
+    let Design::Incomplete { reason } = &p.design else { return };
+    let _ = writeln!(
+        s,
+        "**Incomplete design.** {reason}. Kendall's coefficients of consistency (circular triads, zeta) and agreement (u), their chi-square tests and David's vote-count grouping need every pair judged by every judge, so they are not reported. The stimuli are ranked on the Thurstone Case V scale over all {} trials, with bootstrap intervals over participants, and grouped by the scale (see [the pairs shown](#pairs-shown-{})).\n",
+        p.matrix_all.total(),
+        e.name
+    );
+    let counts = p.pair_counts();
+    let _ = writeln!(s, "| stimulus | id | times shown | wins | groups | scale (JOD) | CI |");
+    let _ = writeln!(s, "| --- | --- | ---: | ---: | --- | ---: | --- |");
+    let wins = p.matrix_all.scores();
+    let mut order: Vec<usize> = (0..e.stimuli.len()).collect();
+    order.sort_by(|&a, &b| p.scale.scores[b].total_cmp(&p.scale.scores[a]).then(a.cmp(&b)));
+    for i in order {
+        let groups = p.memberships[i].iter().map(|g| format!("G{}", g + 1)).collect::<Vec<_>>().join(" ");
+        let ci = match (p.scale.lower.get(i), p.scale.upper.get(i)) {
+            (Some(l), Some(u)) => format!("[{l:.2}, {u:.2}]"),
+            _ => "-".into(),
+        };
+        let shown: u32 = counts[i].iter().sum();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {:.3} | {} |",
+            e.labels[i], e.stimuli[i], shown, wins[i], groups, p.scale.scores[i], ci
+        );
+    }
+    let _ = writeln!(s);
+    match &p.scale_grouping {
+        Some(Ok(g)) => {
+            let _ = writeln!(
+                s,
+                "**Significance grouping** (scale, alpha = {}): {}. {} of {} pairs differ significantly; {} groups.\n",
+                g.alpha,
+                g.test,
+                g.significant_pairs,
+                e.stimuli.len() * e.stimuli.len().saturating_sub(1) / 2,
+                p.groups.len()
+            );
+        }
+        Some(Err(why)) => {
+            let _ = writeln!(s, "**Significance grouping**: not available: {why}.\n");
+        }
+        None => {}
+    }
+    if !p.groups.is_empty() {
+        groups_table(s, &p.groups, "scale");
+    }
+    if let Some(r) = &p.recommendation {
+        recommendation_text(s, r);
+    }
+}
+
+/// The heat map of the pairs shown and the observer screening (every 2AFC experiment).
+fn pairs_and_screening_markdown(s: &mut String, e: &ExperimentReport, p: &PairedReport) {
+    let counts = p.pair_counts();
+    let t = e.stimuli.len();
+    let pairs = t * t.saturating_sub(1) / 2;
+    let shown = (0..t).map(|i| (i + 1..t).filter(|&j| counts[i][j] > 0).count()).sum::<usize>();
+    let _ = writeln!(s, "<a id=\"pairs-shown-{}\"></a>", e.name);
+    let _ = writeln!(
+        s,
+        "**Pairs shown.** {shown} of {pairs} pairs were shown at least once ({} trials): ![pairs]({}-pairs.png)\n",
+        p.matrix_all.total(),
+        e.name
+    );
+    let sc = &p.screening;
+    let _ = writeln!(s, "**Observer screening.** {}.\n", sc.statistic);
+    let _ = writeln!(s, "![screening]({}-screening.png)\n", e.name);
+    let _ = writeln!(s, "| participant | trials | L (log10 per trial) | distance (IQR below Q1) | flagged |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | --- |");
+    for o in &sc.observers {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.4} | {:.2} | {} |",
+            o.participant,
+            o.trials,
+            o.log10_likelihood,
+            o.distance,
+            if o.flagged { "yes" } else { "no" }
+        );
+    }
+    let _ = writeln!(s);
+    if sc.flagged.is_empty() {
+        let _ = writeln!(s, "No participant is flagged.\n");
+    } else if p.excluded_participants.is_empty() {
+        let _ = writeln!(
+            s,
+            "Flagged: {}. They are kept in this analysis; `blurlab analyze --exclude-outliers` leaves their sessions out.\n",
+            sc.flagged.join(", ")
+        );
+    } else {
+        let _ = writeln!(s, "Flagged and excluded: {}.\n", p.excluded_participants.join(", "));
+    }
 }
 
 /// Draws a figure of a vote table (for `analyze --votes`).

@@ -184,35 +184,53 @@ pub fn fit_case_v(m: &PreferenceMatrix, prior_sd: f64, start: Option<&[f64]>) ->
     (s, 100)
 }
 
+/// The bootstrap fits: `options.resamples` (clamped to [`MAX_RESAMPLES`]) resamples of
+/// `judges` drawn with replacement from a PCG64 generator seeded with `options.seed`, each
+/// refitted from `start`. Returns one score vector per resample (empty without judges).
+pub fn bootstrap_fits(judges: &[PreferenceMatrix], start: &[f64], options: ScaleOptions) -> Vec<Vec<f64>> {
+    let resamples = options.resamples.min(MAX_RESAMPLES);
+    let Some(first) = judges.first() else { return Vec::new() };
+    let t = first.t();
+    let mut rng = Pcg64::seed_from_u64(options.seed);
+    let mut fits = Vec::with_capacity(resamples);
+    let mut resampled = PreferenceMatrix::new(t);
+    for _ in 0..resamples {
+        resampled.counts.iter_mut().flatten().for_each(|c| *c = 0);
+        for _ in 0..judges.len() {
+            resampled.add_matrix(&judges[rng.random_range(0..judges.len())]);
+        }
+        fits.push(fit_case_v(&resampled, options.prior_sd, Some(start)).0);
+    }
+    fits
+}
+
 /// Scales the stimuli of the summed matrix, with bootstrap intervals from `judges` (one
 /// matrix per judge, resampled with replacement; their sum should be `total`).
 pub fn scale_with_bootstrap(total: &PreferenceMatrix, judges: &[PreferenceMatrix], options: ScaleOptions) -> Scale {
+    scale_with_bootstrap_fits(total, judges, options).0
+}
+
+/// [`scale_with_bootstrap`] that also returns the bootstrap fits ([`bootstrap_fits`]).
+pub fn scale_with_bootstrap_fits(
+    total: &PreferenceMatrix,
+    judges: &[PreferenceMatrix],
+    options: ScaleOptions,
+) -> (Scale, Vec<Vec<f64>>) {
     let t = total.t();
     let (scores, iterations) = fit_case_v(total, options.prior_sd, None);
     let (mut lower, mut upper) = (Vec::new(), Vec::new());
     let options = ScaleOptions { resamples: options.resamples.min(MAX_RESAMPLES), ..options };
-    if options.resamples > 0 && !judges.is_empty() {
-        let mut rng = Pcg64::seed_from_u64(options.seed);
-        let mut samples: Vec<Vec<f64>> = vec![Vec::with_capacity(options.resamples); t];
-        let mut resampled = PreferenceMatrix::new(t);
-        for _ in 0..options.resamples {
-            resampled.counts.iter_mut().flatten().for_each(|c| *c = 0);
-            for _ in 0..judges.len() {
-                resampled.add_matrix(&judges[rng.random_range(0..judges.len())]);
-            }
-            let (fit, _) = fit_case_v(&resampled, options.prior_sd, Some(&scores));
-            for (column, value) in samples.iter_mut().zip(fit) {
-                column.push(value);
-            }
-        }
+    let fits = if options.resamples > 0 { bootstrap_fits(judges, &scores, options) } else { Vec::new() };
+    if !fits.is_empty() {
         let tail = (1.0 - options.confidence) / 2.0;
-        for column in &mut samples {
+        for i in 0..t {
+            let mut column: Vec<f64> = fits.iter().map(|f| f[i]).collect();
             column.sort_by(f64::total_cmp);
-            lower.push(percentile(column, tail));
-            upper.push(percentile(column, 1.0 - tail));
+            lower.push(percentile(&column, tail));
+            upper.push(percentile(&column, 1.0 - tail));
         }
     }
-    Scale { scores, lower, upper, options, iterations }
+    (Scale { scores, lower, upper, options, iterations }, fits)
 }
 
 /// Linear-interpolated percentile of sorted values (`q` in [0, 1]).

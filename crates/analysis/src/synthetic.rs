@@ -1,6 +1,8 @@
 //! Synthetic experiment data for benchmarks and examples: simulated judges of the
 //! interaction test (T3..T5 x A3..A5) who follow Thurstone Case V with known qualities, from a
-//! recorded seed. Tests write real log files instead (see `tests/logs_and_report.rs`).
+//! recorded seed, and incomplete designs ([`simulated_incomplete_experiment`]): observers of
+//! known kinds judging random pairs on a trial budget. Tests write real log files where the
+//! reading matters (see `tests/logs_and_report.rs`).
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -66,6 +68,86 @@ pub fn simulated_experiment(stimuli: &[StimulusId], judges: usize, seed: u64) ->
         definition: None,
         sessions,
         trials,
+        warnings: Vec::new(),
+    }
+}
+
+/// The stimuli of the full study (3 materials x 3 speeds x 5 shutters x 5 sampling levels,
+/// mono): the first `n` of the 225, at most 225.
+pub fn study_stimuli(n: usize) -> Vec<StimulusId> {
+    let mut out = Vec::new();
+    for material in 1..=3 {
+        for speed in 1..=3 {
+            for shutter in 1..=5 {
+                for samples in 1..=5 {
+                    out.push(StimulusId { material, speed, shutter, samples, method: None, view: study::View::Mono });
+                }
+            }
+        }
+    }
+    out.truncate(n);
+    out
+}
+
+/// How a simulated participant answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Observer {
+    /// Thurstone Case V: `P(i beats j) = Phi((s_i - s_j) / 1.4826)` with the true scores.
+    Thurstone,
+    /// A coin flip on every trial.
+    Random,
+    /// Thurstone on the reversed scale (`-s`).
+    Reversed,
+}
+
+/// One session per observer (`P00`, `P01`, ...), each judging `trials` pairs drawn uniformly
+/// with replacement from all pairs of `stimuli` (so most pairs are never shown to one
+/// participant and some twice), answering as its [`Observer`] kind with `truth` (JOD).
+pub fn simulated_incomplete_experiment(
+    stimuli: &[StimulusId],
+    truth: &[f64],
+    observers: &[Observer],
+    trials: usize,
+    seed: u64,
+) -> ExperimentData {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let t = stimuli.len();
+    let mut sessions = Vec::new();
+    let mut rows = Vec::new();
+    for (p, kind) in observers.iter().enumerate() {
+        for k in 0..trials {
+            let a = rng.random_range(0..t);
+            let b = (a + 1 + rng.random_range(0..t - 1)) % t;
+            let u: f64 = rng.random::<f64>().clamp(1e-12, 1.0 - 1e-12);
+            let noise = normal_upper_quantile(u) * crate::scaling::JOD_SIGMA;
+            let a_wins = match kind {
+                Observer::Thurstone => truth[a] - truth[b] + noise > 0.0,
+                Observer::Reversed => truth[b] - truth[a] + noise > 0.0,
+                Observer::Random => noise > 0.0,
+            };
+            let choice = if a_wins { stimuli[a] } else { stimuli[b] };
+            rows.push(Trial { session: p, line: 12 + k, shown: vec![stimuli[a], stimuli[b]], choice, correct: None });
+        }
+        sessions.push(Session {
+            path: PathBuf::from(format!("simulated/P{p:02}/session-1.csv")),
+            participant: format!("P{p:02}"),
+            session: "1".into(),
+            attributes: BTreeMap::new(),
+            completed: true,
+            trailing_corrupt: None,
+            trials,
+        });
+    }
+    ExperimentData {
+        name: "simulated-incomplete".into(),
+        experiment_sha256: String::new(),
+        stimulus_set_sha256: String::new(),
+        task: Task::TwoAfc,
+        view: study::View::Mono,
+        stimuli: stimuli.to_vec(),
+        definition: None,
+        sessions,
+        trials: rows,
         warnings: Vec::new(),
     }
 }
