@@ -7,7 +7,9 @@
 //! over them. The runner reads a rendered stimulus set through `study::manifest` and never
 //! links the renderer.
 //!
-//! - [`schedule`]: the trial list of a session, derived from the definition and a seed.
+//! - [`schedule`]: the trial list of a session, derived from the definition and a seed;
+//!   with `selection = "asap"` or `"random"`, each counted trial chosen when it is due.
+//! - [`shared_posterior`]: the ASAP posterior every session of an experiment shares.
 //! - [`stimuli`]: the rendered set, checks that every stimulus exists, frame decoding.
 //! - [`session`]: opening, resuming and appending to a participant's session log.
 //! - [`playback`]: the steps of a trial and frame pacing locked to the display refresh.
@@ -30,6 +32,7 @@ pub mod gpu;
 pub mod playback;
 pub mod schedule;
 pub mod session;
+pub mod shared_posterior;
 pub mod simulate;
 pub mod stimuli;
 pub mod summary;
@@ -100,6 +103,17 @@ pub enum RunnerError {
         sessions: Vec<u32>,
         /// The participant's folder.
         dir: PathBuf,
+    },
+    /// The experiment's shared selection posterior is unusable (another experiment's, damaged,
+    /// or its lock is held too long).
+    #[error("{}: key `{key}`: {message}", path.display())]
+    Selection {
+        /// The posterior file (or its lock).
+        path: PathBuf,
+        /// The key at fault.
+        key: String,
+        /// What is wrong.
+        message: String,
     },
     /// A command-line or start-screen value is unusable (participant code, model, display).
     #[error("{what}: {message}")]

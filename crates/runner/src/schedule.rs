@@ -1,6 +1,13 @@
 //! The trial list of a session: practice trials first (in the definition's order, flagged),
 //! then every unordered pair of the experiment's stimuli `repeats` times, shuffled.
 //!
+//! With `selection = "asap"` or `"random"` [`build`] gives the practice trials only, and each
+//! counted trial is chosen by [`select`] when it is due: ASAP's best pair under the shared
+//! posterior (`selection::best_pair` with the paper's selective evaluation and the refined
+//! search), or a uniformly random pair. Its draws (selective evaluation, ties, random pair,
+//! then the order within the pair) come from a PCG-64 generator seeded with
+//! `study::seed::mix(seed, [SELECTION_STREAM, trial index])`.
+//!
 //! Every random choice comes from one PCG-64 generator seeded with
 //! `study::seed::mix(seed, [SCHEDULE_STREAM])`, where `seed` is recorded in the session's log
 //! header; the same definition and seed give the same schedule, which is how a resumed
@@ -14,7 +21,7 @@
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use study::StimulusId;
-use study::experiment::ExperimentDefinition;
+use study::experiment::{ExperimentDefinition, PairSelection};
 use study::response::Task;
 
 /// The stream constant mixed into the session seed for the schedule.
@@ -49,7 +56,37 @@ impl Trial {
     }
 }
 
-/// Builds the schedule of a session.
+/// The stream constant mixed into the session seed for a selected trial.
+pub const SELECTION_STREAM: u64 = 0xA5A9_5E1E;
+
+/// The counted trial `index` of a session with a budgeted selection: ASAP's choice under
+/// `posterior` (required for `asap`), or a random pair.
+pub fn select(
+    definition: &ExperimentDefinition,
+    seed: u64,
+    index: u32,
+    posterior: Option<&selection::Posterior>,
+) -> Option<Trial> {
+    let mut rng = Pcg64::seed_from_u64(study::seed::mix(seed, &[SELECTION_STREAM, u64::from(index)]));
+    let n = definition.stimuli.len();
+    let (i, j) = match (definition.selection, posterior) {
+        (PairSelection::Asap { .. }, Some(p)) => selection::best_pair(
+            p,
+            selection::Evaluation::Selective,
+            selection::Search::Refine(selection::REFINED_PAIRS),
+            &mut rng,
+        )?,
+        (PairSelection::Random { .. }, _) if n >= 2 => selection::random_pair(n, &mut rng),
+        _ => return None,
+    };
+    let mut pair = [definition.stimuli[i], definition.stimuli[j]];
+    if definition.shuffle_within_pair && crate::index_below(&mut rng, 2) == 1 {
+        pair.swap(0, 1);
+    }
+    Some(Trial { index, practice: false, task: definition.task, shown: pair.to_vec() })
+}
+
+/// Builds the schedule of a session (its practice trials only, for a budgeted selection).
 pub fn build(definition: &ExperimentDefinition, seed: u64) -> Vec<Trial> {
     let mut rng = Pcg64::seed_from_u64(study::seed::mix(seed, &[SCHEDULE_STREAM]));
     let task = definition.task;
@@ -69,6 +106,9 @@ pub fn build(definition: &ExperimentDefinition, seed: u64) -> Vec<Trial> {
             Task::Match => vec![reference, pair[0], pair[1]],
         };
         push(true, shown, &mut trials);
+    }
+    if !definition.selection.is_complete() {
+        return trials;
     }
     let s = &definition.stimuli;
     let mut pairs = Vec::new();

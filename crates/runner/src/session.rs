@@ -86,8 +86,11 @@ pub struct Answer {
 pub struct Session {
     /// The definition.
     pub definition: ExperimentDefinition,
-    /// The full schedule (practice included).
+    /// The schedule (practice included): every trial for a complete design; for a budgeted
+    /// selection the trials shown so far and the one due, chosen when it became due.
     pub schedule: Vec<Trial>,
+    /// Trials the session has in all (practice and counted).
+    pub planned: usize,
     /// Index of the next trial to show (`schedule.len()` when done).
     pub next: usize,
     /// The schedule seed (from the header when resumed).
@@ -102,6 +105,7 @@ pub struct Session {
     /// the definition does not ask for follow, alphabetically): those of the options for a new
     /// session, those recorded when it started for a resumed one.
     pub recorded_attributes: Vec<(String, String)>,
+    results: PathBuf,
     log: ResponseLog,
     frames: File,
     frames_path: PathBuf,
@@ -225,7 +229,7 @@ pub fn participant_status(
 ) -> Result<ParticipantStatus, RunnerError> {
     check_participant(participant)?;
     let dir = participant_dir(results, &definition.name, participant);
-    let counted_total = schedule::build(definition, 0).iter().filter(|t| !t.practice).count();
+    let counted_total = definition.selection.counted_trials(definition.stimuli.len());
     let mut sessions = Vec::new();
     let mut attributes = Vec::new();
     for number in existing_sessions(&dir) {
@@ -313,7 +317,7 @@ impl Session {
             let path = dir.join(format!("session-{n}.csv"));
             let log = SessionLog::read(&path)?;
             if !log.completed {
-                return Self::resume(definition, set, &path, n, options, lock);
+                return Self::resume(definition, set, results, &path, n, options, lock);
             }
             if !options.allow_new_session {
                 return Err(RunnerError::SessionsComplete {
@@ -327,6 +331,7 @@ impl Session {
         let seed = options.seed.unwrap_or_else(|| fresh_seed(participant));
         let path = dir.join(format!("session-{number}.csv"));
         let schedule = schedule::build(definition, seed);
+        let planned = planned_trials(definition);
         let mut header = SessionHeader::default();
         header
             .set("experiment", &definition.name)
@@ -337,7 +342,8 @@ impl Session {
             .set("seed", seed.to_string())
             .set("participant", participant)
             .set("session", number.to_string())
-            .set("trials", schedule.len().to_string())
+            .set("trials", planned.to_string())
+            .set("selection", definition.selection.name())
             .set("started", utc_timestamp_now());
         if let Some(display) = &options.display {
             header.set("display", display.to_string());
@@ -348,25 +354,31 @@ impl Session {
         let recorded_attributes = ordered_attributes(attributes, definition);
         let log = ResponseLog::create(&path, &header)?;
         let (frames, frames_path) = open_frame_log(&path)?;
-        Ok(Session {
+        let mut session = Session {
             definition: definition.clone(),
             schedule,
+            planned,
             next: 0,
             seed,
             number,
             resumed: false,
             warnings: Vec::new(),
             recorded_attributes,
+            results: results.to_owned(),
             log,
             frames,
             frames_path,
             _lock: lock,
-        })
+        };
+        session.select_due(None)?;
+        Ok(session)
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn resume(
         definition: &ExperimentDefinition,
         set: &StimulusSet,
+        results: &Path,
         path: &Path,
         number: u32,
         options: &SessionOptions,
@@ -407,11 +419,29 @@ impl Session {
         {
             return Err(bad(format!("it was started with seed {seed}, not {s}; drop --seed to resume it")));
         }
-        let schedule = schedule::build(definition, seed);
-        if read.rows.len() > schedule.len() {
-            return Err(bad(format!("it has {} rows but the schedule has {} trials", read.rows.len(), schedule.len())));
+        let mut schedule = schedule::build(definition, seed);
+        let planned = planned_trials(definition);
+        if read.rows.len() > planned {
+            return Err(bad(format!("it has {} rows but the session has {planned} trials", read.rows.len())));
         }
         for (k, (line, row)) in read.rows.iter().enumerate() {
+            if k >= schedule.len() {
+                // A selected trial: whatever was chosen then, if it is a counted pair of two
+                // of the experiment's stimuli.
+                let known = row.shown.len() == 2
+                    && row.shown[0] != row.shown[1]
+                    && row.shown.iter().all(|s| definition.stimuli.binary_search(s).is_ok());
+                if row.trial as usize != k || row.practice || !known || definition.selection.is_complete() {
+                    return Err(bad(format!(
+                        "line {line}: trial {} showed {}, which is not counted trial {k} of a {} selection over the experiment's stimuli",
+                        row.trial,
+                        crate::join_ids(&row.shown),
+                        definition.selection.name()
+                    )));
+                }
+                schedule.push(Trial { index: row.trial, practice: false, task: row.task, shown: row.shown.clone() });
+                continue;
+            }
             let t = &schedule[k];
             if row.trial as usize != k || row.shown != t.shown || row.practice != t.practice {
                 return Err(bad(format!(
@@ -434,24 +464,84 @@ impl Session {
         }
         let recorded_attributes = recorded_attributes(&read, definition)?;
         let next = read.rows.len();
-        if next == schedule.len() {
+        if next == planned {
             log.mark_completed(&utc_timestamp_now())?;
         }
         let (frames, frames_path) = open_frame_log(path)?;
-        Ok(Session {
+        let mut session = Session {
             definition: definition.clone(),
             schedule,
+            planned,
             next,
             seed,
             number,
             resumed: true,
             warnings,
             recorded_attributes,
+            results: results.to_owned(),
             log,
             frames,
             frames_path,
             _lock: lock,
-        })
+        };
+        session.select_due(None)?;
+        Ok(session)
+    }
+
+    /// Chooses the counted trial now due under a budgeted selection, if none is scheduled.
+    /// ASAP reads the shared posterior, adding `answered` (this session's newest answer) or,
+    /// when `None`, every answer in the experiment's logs that it lacks.
+    fn select_due(&mut self, answered: Option<&TrialRow>) -> Result<(), RunnerError> {
+        let d = &self.definition;
+        if d.selection.is_complete() {
+            return Ok(());
+        }
+        let asap = matches!(d.selection, study::experiment::PairSelection::Asap { .. });
+        let shared = match (asap, answered) {
+            (false, _) => None,
+            (true, Some(row)) if !row.practice => {
+                let index = |s: &study::StimulusId| d.stimuli.binary_search(s).ok();
+                let (Some(a), Some(b), Some(c)) = (index(&row.shown[0]), index(&row.shown[1]), index(&row.choice))
+                else {
+                    return Err(RunnerError::Input {
+                        what: "answer".into(),
+                        message: "a counted trial showed a stimulus outside the experiment".into(),
+                    });
+                };
+                let participant = self.log_participant();
+                let answer = crate::shared_posterior::RecordedAnswer {
+                    participant,
+                    session: self.number,
+                    trial: row.trial,
+                    winner: c,
+                    loser: if c == a { b } else { a },
+                };
+                Some(crate::shared_posterior::SharedPosterior::record(&self.results, d, &[answer])?)
+            }
+            (true, _) if self.next == self.schedule.len() && self.next < self.planned => {
+                Some(crate::shared_posterior::SharedPosterior::open(&self.results, d)?)
+            }
+            (true, _) => None,
+        };
+        if self.next == self.schedule.len() && self.next < self.planned {
+            let trial = schedule::select(d, self.seed, self.next as u32, shared.as_ref().map(|s| &s.posterior))
+                .ok_or_else(|| RunnerError::Input {
+                    what: "selection".into(),
+                    message: format!("no pair could be selected among {} stimuli", d.stimuli.len()),
+                })?;
+            self.schedule.push(trial);
+        }
+        Ok(())
+    }
+
+    /// The participant code, from the session folder's name.
+    fn log_participant(&self) -> String {
+        self.log
+            .path()
+            .parent()
+            .and_then(|p| p.file_name())
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
     }
 
     /// The trial to show now, if any remain.
@@ -461,13 +551,13 @@ impl Session {
 
     /// Whether every trial has a row.
     pub fn is_finished(&self) -> bool {
-        self.next >= self.schedule.len()
+        self.next >= self.planned
     }
 
     /// Counted (non-practice) trials done and in all.
     pub fn counted_progress(&self) -> (usize, usize) {
         let done = self.schedule[..self.next].iter().filter(|t| !t.practice).count();
-        (done, self.schedule.iter().filter(|t| !t.practice).count())
+        (done, self.planned - self.definition.practice.len())
     }
 
     /// Whether a break is due before the next trial: after every `break_every` counted trials.
@@ -548,8 +638,14 @@ impl Session {
         if self.is_finished() {
             self.log.mark_completed(&utc_timestamp_now())?;
         }
+        self.select_due(Some(&row))?;
         Ok(row)
     }
+}
+
+/// Trials of a session of `definition`: practice and counted.
+pub fn planned_trials(definition: &ExperimentDefinition) -> usize {
+    definition.practice.len() + definition.selection.counted_trials(definition.stimuli.len())
 }
 
 fn open_frame_log(csv: &Path) -> Result<(File, PathBuf), RunnerError> {
@@ -856,5 +952,136 @@ mod tests {
             }
         }
         assert_eq!(breaks, vec![4, 8]);
+    }
+
+    fn asap_setup(budget: u32) -> (tempfile::TempDir, ExperimentDefinition, StimulusSet) {
+        let dir = tempfile::tempdir().unwrap();
+        let base = crate::schedule::tests::definition("2afc", 1);
+        let text = std::fs::read_to_string(&base.path).unwrap_or_default();
+        assert!(text.is_empty(), "the fixture is parsed from text, not a file");
+        let toml = study::testing::ExperimentToml {
+            task: "2afc".into(),
+            question: "q".into(),
+            shutter: vec![1, 2, 3, 4, 5],
+            samples: vec![5],
+            repeats: Some(1),
+            practice: vec![study::testing::pair("M2-S2-T1-A1", "M2-S2-T5-A5")],
+            ..study::testing::ExperimentToml::minimal()
+        }
+        .to_string()
+        .replacen("[pairs]\nrepeats = 1", &format!("[pairs]\nselection = \"asap\"\nbudget = {budget}"), 1);
+        let d = ExperimentDefinition::parse(Path::new("asap.toml"), &toml).unwrap();
+        let ids: Vec<StimulusId> = d.all_stimuli().into_iter().collect();
+        write_synthetic_set(&dir.path().join("set"), &ids, 8, 4, 2, 30.0).unwrap();
+        let set = StimulusSet::open_for(&dir.path().join("set"), &d).unwrap();
+        (dir, d, set)
+    }
+
+    /// Prefers the stimulus with the longer shutter (a consistent observer).
+    fn prefer_longer_shutter(s: &Session) -> Answer {
+        let t = s.current().unwrap();
+        let o = t.options();
+        Answer { slot: usize::from(o[1].shutter > o[0].shutter), ..Default::default() }
+    }
+
+    #[test]
+    fn asap_sessions_share_one_posterior_that_the_logs_rebuild() {
+        use crate::shared_posterior::{POSTERIOR_FILE, SharedPosterior, answers_in_logs};
+        let (dir, d, set) = asap_setup(12);
+        let results = dir.path().join("results");
+        // Two participants at once, each answering every trial in its own thread.
+        std::thread::scope(|scope| {
+            for (p, seed) in [("P01", 1u64), ("P02", 2)] {
+                let (d, set, results) = (&d, &set, &results);
+                scope.spawn(move || {
+                    let opts = SessionOptions { seed: Some(seed), ..Default::default() };
+                    let mut s = Session::open(d, set, results, p, &opts).unwrap();
+                    assert_eq!((s.planned, s.counted_progress()), (13, (0, 12)));
+                    while !s.is_finished() {
+                        let a = prefer_longer_shutter(&s);
+                        s.record(&a).unwrap();
+                    }
+                });
+            }
+        });
+        let exp = results.join(&d.name);
+        let file = exp.join(POSTERIOR_FILE);
+        let shared = SharedPosterior::read(&file, &d).unwrap();
+        assert_eq!(shared.answers.len(), 24, "an update was lost");
+        assert_eq!(shared.answers, answers_in_logs(&exp, &d).unwrap());
+        // The posterior orders the stimuli as the answers did (longer shutter preferred).
+        let means = shared.posterior.means();
+        assert!(means.windows(2).all(|w| w[0] < w[1]), "{means:?}");
+        // ASAP spreads the trials over the stimuli: every stimulus was shown.
+        let shown: std::collections::BTreeSet<usize> =
+            shared.answers.iter().flat_map(|a| [a.winner, a.loser]).collect();
+        assert_eq!(shown.len(), 5);
+        // Lost: rebuilt from the logs, byte for byte.
+        let bytes = std::fs::read(&file).unwrap();
+        std::fs::remove_file(&file).unwrap();
+        SharedPosterior::open(&results, &d).unwrap();
+        assert_eq!(std::fs::read(&file).unwrap(), bytes);
+    }
+
+    #[test]
+    fn a_killed_asap_session_resumes_where_it_stopped() {
+        let (dir, d, set) = asap_setup(10);
+        let results = dir.path().join("results");
+        let opts = SessionOptions { seed: Some(5), ..Default::default() };
+        let mut s = Session::open(&d, &set, &results, "P01", &opts).unwrap();
+        for _ in 0..6 {
+            let a = prefer_longer_shutter(&s);
+            s.record(&a).unwrap();
+        }
+        let shown: Vec<Trial> = s.schedule[..6].to_vec();
+        drop(s);
+        let mut s = Session::open(&d, &set, &results, "P01", &SessionOptions::default()).unwrap();
+        assert!(s.resumed);
+        assert_eq!((s.next, &s.schedule[..6]), (6, &shown[..]));
+        while !s.is_finished() {
+            let a = prefer_longer_shutter(&s);
+            s.record(&a).unwrap();
+        }
+        let log = SessionLog::read(s.path()).unwrap();
+        assert!(log.completed);
+        assert_eq!(log.rows.iter().filter(|(_, r)| !r.practice).count(), 10);
+        assert_eq!(log.header.get("selection"), Some("asap"));
+    }
+
+    #[test]
+    fn a_foreign_or_damaged_posterior_is_refused_naming_file_and_key() {
+        use crate::shared_posterior::POSTERIOR_FILE;
+        let (dir, d, set) = asap_setup(4);
+        let results = dir.path().join("results");
+        let opts = SessionOptions { seed: Some(3), ..Default::default() };
+        let mut s = Session::open(&d, &set, &results, "P01", &opts).unwrap();
+        for _ in 0..3 {
+            let a = prefer_longer_shutter(&s);
+            s.record(&a).unwrap();
+        }
+        let log_path = s.path().to_owned();
+        drop(s);
+        let file = results.join(&d.name).join(POSTERIOR_FILE);
+        let good = std::fs::read_to_string(&file).unwrap();
+        let log_bytes = std::fs::read(&log_path).unwrap();
+        let cases = [
+            (
+                good.replacen(&format!("\"experiment\": \"{}\"", d.name), "\"experiment\": \"other\"", 1),
+                "key `experiment`: is `other`",
+            ),
+            (good[..good.len() / 2].to_owned(), "damaged"),
+            (
+                good.replacen("\"mean_jod\": [\n    ", "\"mean_jod\": [\n    1.5", 1).replacen("1.5-", "1.5, -", 1),
+                "key `mean_jod`",
+            ),
+            (good.replacen("\"winner\": ", "\"winner\": 9", 1), "key `answers`"),
+        ];
+        for (text, expected) in cases {
+            assert_ne!(text, good);
+            std::fs::write(&file, &text).unwrap();
+            let e = Session::open(&d, &set, &results, "P01", &SessionOptions::default()).unwrap_err().to_string();
+            assert!(e.contains(&file.display().to_string()) && e.contains(expected), "{expected}: {e}");
+            assert_eq!(std::fs::read(&log_path).unwrap(), log_bytes, "the log changed");
+        }
     }
 }

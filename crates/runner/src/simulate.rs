@@ -314,8 +314,19 @@ pub fn run_session_with(
         allow_new_session: true,
     };
     let mut session = Session::open(definition, &set, results_dir, participant, &session_options)?;
-    let model = &model.prepare(&set, &session.schedule)?;
-    model.check(&session.schedule)?;
+    // A budgeted selection chooses its trials as it goes: prepare the model for any pair,
+    // through one trial per neighbouring pair of stimuli, which shows every stimulus.
+    let mut coverage = session.schedule.clone();
+    if !definition.selection.is_complete() {
+        coverage.extend(definition.stimuli.windows(2).map(|w| Trial {
+            index: 0,
+            practice: false,
+            task: definition.task,
+            shown: w.to_vec(),
+        }));
+    }
+    let model = &model.prepare(&set, &coverage)?;
+    model.check(&coverage)?;
     let started_at = session.next;
     let mut answered = 0;
     while let Some(trial) = session.current().cloned() {

@@ -171,12 +171,12 @@ fn gains_by(post: &Posterior, evaluation: Evaluation, second_iteration: bool, rn
             row.push(p.min(1.0 - p));
         }
         let max = row.iter().copied().fold(0.0f64, f64::max);
-        for j in 0..i {
+        for (j, &q) in row.iter().enumerate() {
             let keep = match evaluation {
                 Evaluation::Every => true,
                 Evaluation::Selective => {
                     let u: f64 = crate::unit_f64(rng);
-                    max > 0.0 && row[j] / max >= u
+                    max > 0.0 && q / max >= u
                 }
             };
             if keep {
@@ -204,7 +204,12 @@ pub const REFINED_PAIRS: usize = 64;
 
 /// The next pair to show: the largest gain among the evaluated pairs, ties broken at random.
 /// `None` with fewer than two stimuli.
-pub fn best_pair(post: &Posterior, evaluation: Evaluation, search: Search, rng: &mut impl Rng) -> Option<(usize, usize)> {
+pub fn best_pair(
+    post: &Posterior,
+    evaluation: Evaluation,
+    search: Search,
+    rng: &mut impl Rng,
+) -> Option<(usize, usize)> {
     let all = match search {
         Search::Full => gains(post, evaluation, rng),
         Search::Refine(n) => {
@@ -244,7 +249,7 @@ pub fn spanning_batch(post: &Posterior, evaluation: Evaluation, rng: &mut impl R
     }
     let mut out = Vec::new();
     for g in all {
-        if !(g.gain > 0.0) {
+        if g.gain.is_nan() || g.gain <= 0.0 {
             continue;
         }
         let (a, b) = (root(&mut parent, g.i), root(&mut parent, g.j));

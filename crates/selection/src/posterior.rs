@@ -41,7 +41,9 @@ pub struct Comparison {
 /// A Gaussian in natural parameters: precision and precision times mean.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Natural {
+    /// Precision (inverse variance).
     pub precision: f64,
+    /// Precision times mean.
     pub tau: f64,
 }
 
@@ -98,7 +100,7 @@ pub fn factor_messages(winner: Natural, loser: Natural) -> [Natural; 2] {
     let post_precision = 1.0 / (v * one_minus_lambda);
     let post_mean = m + sd * psi;
     let msg_precision = post_precision - 1.0 / v;
-    if !(msg_precision > 1e-12 / v) || !msg_precision.is_finite() {
+    if msg_precision.is_nan() || msg_precision <= 1e-12 / v || !msg_precision.is_finite() {
         return [Natural::default(); 2];
     }
     let msg_mean = (post_mean * post_precision - m / v) / msg_precision;
@@ -231,9 +233,8 @@ impl Posterior {
         self.marginals[winner] = cw.plus(new[0]);
         self.marginals[loser] = cl.plus(new[1]);
         self.messages[g] = new;
-        let moved = |a: Natural, b: Natural| {
-            (a.mean() - b.mean()).abs().max((a.variance().sqrt() - b.variance().sqrt()).abs())
-        };
+        let moved =
+            |a: Natural, b: Natural| (a.mean() - b.mean()).abs().max((a.variance().sqrt() - b.variance().sqrt()).abs());
         moved(bw, self.marginals[winner]).max(moved(bl, self.marginals[loser]))
     }
 
@@ -349,7 +350,8 @@ mod tests {
 
     #[test]
     fn bad_comparisons_are_refused_with_their_position() {
-        let e = Posterior::fit(3, &[Comparison { winner: 0, loser: 1 }, Comparison { winner: 2, loser: 2 }]).unwrap_err();
+        let e =
+            Posterior::fit(3, &[Comparison { winner: 0, loser: 1 }, Comparison { winner: 2, loser: 2 }]).unwrap_err();
         assert_eq!(e.index, 1);
         assert!(Posterior::fit(3, &[Comparison { winner: 3, loser: 1 }]).is_err());
     }

@@ -29,6 +29,63 @@ pub const MAX_REPEATS: u32 = 1000;
 /// The most counted trials of a session (pairs x repeats).
 pub const MAX_TRIALS: u64 = 100_000;
 
+/// The most counted trials a participant can be given with `selection = "asap"` or
+/// `"random"` (about seven hours at 5 s a trial: more belongs in several experiments).
+pub const MAX_BUDGET: u32 = 5000;
+
+/// How the pairs of a 2AFC experiment are chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PairSelection {
+    /// Every unordered pair, `repeats` times (a complete design).
+    All {
+        /// How many times each pair is shown in a session.
+        repeats: u32,
+    },
+    /// Active sampling (ASAP): each next pair where it is expected to teach the most, from a
+    /// posterior shared by every session of the experiment.
+    Asap {
+        /// Counted trials per session.
+        budget: u32,
+    },
+    /// A uniformly random pair each trial (the baseline of active sampling).
+    Random {
+        /// Counted trials per session.
+        budget: u32,
+    },
+}
+
+impl PairSelection {
+    /// The `selection` value naming it.
+    pub fn name(self) -> &'static str {
+        match self {
+            PairSelection::All { .. } => "all",
+            PairSelection::Asap { .. } => "asap",
+            PairSelection::Random { .. } => "random",
+        }
+    }
+
+    /// Repeats of each pair (1 for the budgeted selections, where it has no meaning).
+    pub fn repeats(self) -> u32 {
+        match self {
+            PairSelection::All { repeats } => repeats,
+            _ => 1,
+        }
+    }
+
+    /// Counted trials of a session over `stimuli` stimuli.
+    pub fn counted_trials(self, stimuli: usize) -> usize {
+        match self {
+            PairSelection::All { repeats } => stimuli * stimuli.saturating_sub(1) / 2 * repeats as usize,
+            PairSelection::Asap { budget } | PairSelection::Random { budget } => budget as usize,
+        }
+    }
+
+    /// Whether every pair is shown (so Kendall's statistics apply).
+    pub fn is_complete(self) -> bool {
+        matches!(self, PairSelection::All { .. })
+    }
+}
+
 /// The most loops of a sequence per presentation.
 pub const MAX_LOOPS: u32 = 100;
 
@@ -188,8 +245,10 @@ pub struct ExperimentDefinition {
     pub view: View,
     /// The stimuli: the product of the listed levels, sorted.
     pub stimuli: Vec<StimulusId>,
-    /// How many times each unordered pair is presented.
+    /// How many times each unordered pair is presented (1 unless `selection` is `all`).
     pub repeats: u32,
+    /// How pairs are chosen: all of them, or a budget of actively or randomly chosen ones.
+    pub selection: PairSelection,
     /// Shuffle the order of the pairs.
     pub shuffle_pairs: bool,
     /// Shuffle the order within a pair (2AFC) or the candidate slots (matching).
@@ -266,6 +325,41 @@ mod tests {
         // Defaults of the keys the base leaves out.
         assert_eq!((d.presentation.ready_ms, d.presentation.ready_press), (800, false));
         assert_eq!(d.participant_title, DEFAULT_PARTICIPANT_TITLE);
+    }
+
+    #[test]
+    fn budgeted_selections_parse_and_bad_budgets_name_their_key() {
+        let with = |pairs: &str| good().replacen("[pairs]\nrepeats = 2", &format!("[pairs]\n{pairs}"), 1);
+        assert!(good().contains("[pairs]\nrepeats = 2"));
+        let d = parse(&with("selection = \"asap\"\nbudget = 20")).unwrap();
+        assert_eq!(d.selection, PairSelection::Asap { budget: 20 });
+        assert_eq!((d.repeats, d.selection.counted_trials(9), d.selection.is_complete()), (1, 20, false));
+        let d = parse(&with("selection = \"random\"\nbudget = 7")).unwrap();
+        assert_eq!(d.selection, PairSelection::Random { budget: 7 });
+        let d = parse(&with("mode = \"all\"\nrepeats = 3")).unwrap();
+        assert_eq!((d.selection, d.selection.counted_trials(9)), (PairSelection::All { repeats: 3 }, 108));
+        let cases = [
+            ("selection = \"asap\"\nbudget = 0", "line 15: key `pairs.budget`: 0 trials: expected 1 to 5000"),
+            ("selection = \"asap\"\nbudget = 5001", "key `pairs.budget`: 5001 trials"),
+            ("selection = \"asap\"", "key `pairs.budget`: `asap` needs a budget"),
+            ("selection = \"asap\"\nbudget = 5\nrepeats = 2", "key `pairs.repeats`: `asap` chooses its own pairs"),
+            ("selection = \"all\"\nbudget = 5", "key `pairs.budget`: a budget applies to"),
+            ("selection = \"best\"", "line 14: key `pairs.selection`: `best` is not a pair selection"),
+            ("mode = \"all\"\nselection = \"asap\"", "key `pairs.mode`: give `selection` only"),
+        ];
+        for (pairs, expected) in cases {
+            let e = parse(&with(pairs)).unwrap_err().to_string();
+            assert!(e.contains("experiments/t.toml") && e.contains(expected), "{pairs}: {e}");
+        }
+        // Fewer than 3 stimuli, and matching trials, cannot use ASAP.
+        let two = with("selection = \"asap\"\nbudget = 5")
+            .replacen("shutter = [3, 4, 5]", "shutter = [3]", 1)
+            .replacen("samples = [3, 4, 5]", "samples = [3, 4]", 1);
+        let e = parse(&two).unwrap_err().to_string();
+        assert!(e.contains("key `pairs.selection`: `asap` needs at least 3 stimuli; these levels give 2"), "{e}");
+        let matching = with("selection = \"asap\"\nbudget = 5").replacen("task = \"2afc\"", "task = \"match\"", 1);
+        let e = parse(&matching).unwrap_err().to_string();
+        assert!(e.contains("key `pairs.selection`: `asap` selects pairs for 2AFC"), "{e}");
     }
 
     fn error_of(from: &str, to: &str) -> String {

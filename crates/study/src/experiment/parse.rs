@@ -8,7 +8,7 @@ use std::path::Path;
 use super::spec::RawDefinition;
 use super::{
     Attribute, Briefing, DEFAULT_PARTICIPANT_TITLE, DisplayMode, EXPERIMENT_FORMAT, Example, ExperimentDefinition,
-    ExperimentError, Keys, MAX_LOOPS, MAX_REPEATS, MAX_TRIALS, PracticeTrial, Presentation,
+    ExperimentError, Keys, MAX_BUDGET, MAX_LOOPS, MAX_REPEATS, MAX_TRIALS, PairSelection, PracticeTrial, Presentation,
 };
 use crate::fsio::sha256_hex;
 use crate::ids::MethodTag;
@@ -129,34 +129,109 @@ impl ExperimentDefinition {
         }
 
         let pairs = raw.pairs.unwrap_or_default();
-        if pairs.mode != "all" {
-            return Err(bad("pairs", None, "mode", format!("`{}` is not supported (only `all`)", pairs.mode)));
-        }
-        if pairs.repeats == 0 {
-            return Err(bad("pairs", None, "repeats", "must be 1 or more".into()));
-        }
-        if pairs.repeats > MAX_REPEATS {
-            return Err(bad(
-                "pairs",
-                None,
-                "repeats",
-                format!("{} is above the limit of {MAX_REPEATS}", pairs.repeats),
-            ));
-        }
+        let (selection_key, selection_text) = match (&pairs.mode, &pairs.selection) {
+            (Some(_), Some(_)) => {
+                return Err(bad("pairs", None, "mode", "give `selection` only (`mode` is its older name)".into()));
+            }
+            (Some(m), None) => ("mode", m.clone()),
+            (None, Some(s)) => ("selection", s.clone()),
+            (None, None) => ("selection", "all".to_owned()),
+        };
         let n = stimuli.len() as u64;
-        let trials = n * (n - 1) / 2 * u64::from(pairs.repeats);
-        if trials > MAX_TRIALS {
-            return Err(bad(
-                "pairs",
-                None,
-                "repeats",
-                format!(
-                    "{n} stimuli in {} pairs x {} repeats make {trials} trials, above the limit of {MAX_TRIALS}",
-                    n * (n - 1) / 2,
-                    pairs.repeats
-                ),
-            ));
-        }
+        let selection = match selection_text.as_str() {
+            "all" => {
+                if pairs.budget.is_some() {
+                    return Err(bad(
+                        "pairs",
+                        None,
+                        "budget",
+                        "a budget applies to `selection = \"asap\"` or `\"random\"`; `all` shows every pair (set `repeats`)"
+                            .into(),
+                    ));
+                }
+                let repeats = pairs.repeats.unwrap_or(1);
+                if repeats == 0 {
+                    return Err(bad("pairs", None, "repeats", "must be 1 or more".into()));
+                }
+                if repeats > MAX_REPEATS {
+                    return Err(bad(
+                        "pairs",
+                        None,
+                        "repeats",
+                        format!("{repeats} is above the limit of {MAX_REPEATS}"),
+                    ));
+                }
+                let trials = n * (n - 1) / 2 * u64::from(repeats);
+                if trials > MAX_TRIALS {
+                    return Err(bad(
+                        "pairs",
+                        None,
+                        "repeats",
+                        format!(
+                            "{n} stimuli in {} pairs x {repeats} repeats make {trials} trials, above the limit of {MAX_TRIALS}; use `selection = \"asap\"` with a budget",
+                            n * (n - 1) / 2,
+                        ),
+                    ));
+                }
+                PairSelection::All { repeats }
+            }
+            "asap" | "random" => {
+                let asap = selection_text == "asap";
+                if task != Task::TwoAfc {
+                    return Err(bad(
+                        "pairs",
+                        None,
+                        selection_key,
+                        format!(
+                            "`{selection_text}` selects pairs for 2AFC preference trials; this experiment's task is matching (use `all`)"
+                        ),
+                    ));
+                }
+                if asap && n < 3 {
+                    return Err(bad(
+                        "pairs",
+                        None,
+                        selection_key,
+                        format!("`asap` needs at least 3 stimuli; these levels give {n} (use `all`)"),
+                    ));
+                }
+                if pairs.repeats.is_some() {
+                    return Err(bad(
+                        "pairs",
+                        None,
+                        "repeats",
+                        format!("`{selection_text}` chooses its own pairs, which may recur; give `budget` only"),
+                    ));
+                }
+                let Some(budget) = pairs.budget else {
+                    return Err(bad(
+                        "pairs",
+                        None,
+                        "budget",
+                        format!(
+                            "`{selection_text}` needs a budget: the counted trials each participant judges, 1 to {MAX_BUDGET}"
+                        ),
+                    ));
+                };
+                if budget == 0 || budget > MAX_BUDGET {
+                    return Err(bad(
+                        "pairs",
+                        None,
+                        "budget",
+                        format!("{budget} trials: expected 1 to {MAX_BUDGET} counted trials per participant"),
+                    ));
+                }
+                if asap { PairSelection::Asap { budget } } else { PairSelection::Random { budget } }
+            }
+            other => {
+                return Err(bad(
+                    "pairs",
+                    None,
+                    selection_key,
+                    format!("`{other}` is not a pair selection; expected `all`, `asap` or `random`"),
+                ));
+            }
+        };
         let rnd = raw.randomisation.unwrap_or_default();
 
         let id_of = |table: &str, index: Option<usize>, key: &str, text: &str| -> Result<StimulusId, ExperimentError> {
@@ -291,7 +366,8 @@ impl ExperimentDefinition {
             question: raw.question,
             view,
             stimuli,
-            repeats: pairs.repeats,
+            repeats: selection.repeats(),
+            selection,
             shuffle_pairs: rnd.pair_order,
             shuffle_within_pair: rnd.within_pair,
             briefing,

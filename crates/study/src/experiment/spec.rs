@@ -10,10 +10,6 @@ fn default_one() -> u32 {
     1
 }
 
-fn default_all() -> String {
-    "all".into()
-}
-
 fn default_angle() -> f64 {
     14.4
 }
@@ -57,20 +53,16 @@ pub(super) struct RawStimuli {
     pub(super) method: Vec<String>,
 }
 
-#[derive(Deserialize)]
+#[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawPairs {
-    #[serde(default = "default_all")]
-    pub(super) mode: String,
-    #[serde(default = "default_one")]
-    pub(super) repeats: u32,
+    /// The older spelling of `selection` (only `all`).
+    pub(super) mode: Option<String>,
+    pub(super) selection: Option<String>,
+    pub(super) repeats: Option<u32>,
+    pub(super) budget: Option<u32>,
 }
 
-impl Default for RawPairs {
-    fn default() -> Self {
-        RawPairs { mode: default_all(), repeats: 1 }
-    }
-}
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
