@@ -1,7 +1,7 @@
 //! End-to-end: `blurlab analyze --votes` reproduces every transcribed thesis table's
 //! ceil(R_c) and groups as published, and `blurlab stats srange-quantile` prints W.
 
-use blurlab_e2e::{repo_root, run};
+use blurlab_e2e::{repo_root, run, stderr, stdout};
 
 fn header(text: &str, key: &str) -> String {
     text.lines()
@@ -51,4 +51,112 @@ fn missing_votes_file_is_a_bad_input_naming_the_file() {
     let out = run(&["analyze", "--votes", "no/such/votes.csv"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no/such/votes.csv"));
+}
+
+/// Writes one session of 150 random pairs of `stimuli` (true quality: the stimulus's
+/// index in JOD), answered by a logistic stand-in for a Thurstone observer, or on the
+/// reversed scale.
+#[allow(clippy::unwrap_used, reason = "a test helper fails the test by panicking")]
+fn write_random_pairs_session(
+    path: &std::path::Path,
+    participant: &str,
+    stimuli: &[study::StimulusId],
+    reversed: bool,
+    seed: u64,
+) {
+    use study::response::{REQUIRED_KEYS, ResponseLog, SessionHeader, Task, TrialRow};
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let mut h = SessionHeader::default();
+    for k in REQUIRED_KEYS {
+        h.set(k, "x");
+    }
+    h.set("experiment", "random-pairs-e2e");
+    h.set("experiment_sha256", "sha-random-pairs-e2e");
+    h.set("participant", participant);
+    h.set("session", "1");
+    h.set("attributes", "{}");
+    let mut log = ResponseLog::create(path, &h).unwrap();
+    // A small LCG: the test needs no statistics crate, only a fixed, varied sequence.
+    let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut uniform = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let t = stimuli.len();
+    for trial in 0..150u32 {
+        let a = (uniform() * t as f64) as usize % t;
+        let b = (a + 1 + (uniform() * (t - 1) as f64) as usize % (t - 1)) % t;
+        // Logistic noise close to the JOD's normal: P(a wins) = 1 / (1 + exp(-1.7 d / 1.4826)).
+        let d = if reversed { b as f64 - a as f64 } else { a as f64 - b as f64 };
+        let p = 1.0 / (1.0 + (-1.7 * d / 1.4826).exp());
+        let choice = if uniform() < p { stimuli[a] } else { stimuli[b] };
+        log.append(&TrialRow {
+            trial,
+            practice: false,
+            task: Task::TwoAfc,
+            shown: vec![stimuli[a], stimuli[b]],
+            choice,
+            correct: None,
+            response_ms: 900,
+            replays: 0,
+            dropped_frames: 0,
+            timestamp: "2026-12-04T12:00:00.000Z".into(),
+            scale: None,
+            visual_angle_deg: None,
+        })
+        .unwrap();
+    }
+    log.mark_completed("2026-12-04T12:10:00.000Z").unwrap();
+}
+
+#[test]
+fn analyze_an_incomplete_design_screens_and_excludes_outliers() {
+    let dir = tempfile::tempdir().unwrap();
+    let results = dir.path().join("results");
+    let stimuli: Vec<study::StimulusId> =
+        (1..=5).flat_map(|t| (1..=2).map(move |a| format!("M2-S2-T{t}-A{a}").parse().unwrap())).collect();
+    for p in 0..8 {
+        let code = format!("P{p:02}");
+        write_random_pairs_session(&results.join(&code).join("session-1.csv"), &code, &stimuli, p == 5, p as u64 + 1);
+    }
+    let out_dir = dir.path().join("report");
+    let args = |extra: &[&str]| -> Vec<String> {
+        let mut v: Vec<String> =
+            ["analyze", results.to_str().unwrap(), "--out", out_dir.to_str().unwrap(), "--bootstrap", "100"]
+                .iter()
+                .map(|s| s.to_string())
+                .collect();
+        v.extend(extra.iter().map(|s| s.to_string()));
+        v
+    };
+    // Without the flag: the design is called incomplete, P05 is flagged and kept.
+    let kept = run(&args(&[]).iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(kept.status.success(), "{}", stderr(&kept));
+    let (so, se) = (stdout(&kept), stderr(&kept));
+    assert!(
+        so.contains("random-pairs-e2e: incomplete design, Kendall's statistics not computed; 8 participants"),
+        "{so}"
+    );
+    assert!(so.contains("flagged participants (kept; --exclude-outliers leaves them out): P05"), "{so}");
+    // One warning about the design, not one per participant.
+    assert_eq!(se.matches("warning:").count(), 1, "{se}");
+    let md = std::fs::read_to_string(out_dir.join("report.md")).unwrap();
+    assert!(md.contains("**Incomplete design.**") && md.contains("Flagged: P05. They are kept"), "{md}");
+    assert!(!md.contains("Kendall's u ="));
+    for stem in ["random-pairs-e2e-pairs", "random-pairs-e2e-screening"] {
+        assert!(out_dir.join(format!("{stem}.png")).is_file() && out_dir.join(format!("{stem}.svg")).is_file());
+    }
+    // With --exclude-outliers: P05's session is left out and named.
+    let excluded = run(&args(&["--exclude-outliers"]).iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(excluded.status.success(), "{}", stderr(&excluded));
+    let so = stdout(&excluded);
+    assert!(so.contains("7 participants, 1050 trials"), "{so}");
+    assert!(so.contains("random-pairs-e2e: excluded outlying participants (--exclude-outliers): P05"), "{so}");
+    let md = std::fs::read_to_string(out_dir.join("report.md")).unwrap();
+    assert!(md.contains("**Excluded** (`--exclude-outliers`): the sessions of P05"), "{md}");
+    assert!(md.contains("7 sessions (7 completed) from 7 participants"), "{md}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("report.json")).unwrap()).unwrap();
+    assert_eq!(json["experiments"][0]["paired"]["excluded_participants"][0], "P05");
+    assert_eq!(json["experiments"][0]["paired"]["design"]["kind"], "incomplete");
 }

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use analysis::experiment::{AnalysisOptions, JudgeUnit};
-use analysis::report::{build_report, votes_table_figure, write_report};
+use analysis::report::{build_report_screened, votes_table_figure, write_report};
 use analysis::scaling::ScaleOptions;
 use analysis::votes::{VoteTable, analyze_votes};
 use anyhow::Context;
@@ -47,6 +47,10 @@ pub struct Args {
     /// Seed of the bootstrap (recorded in the report).
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Leave out the sessions of the participants observer screening flags (answers far less
+    /// likely than the others' under the scale fitted without them); the report names them.
+    #[arg(long, conflicts_with = "votes")]
+    exclude_outliers: bool,
 }
 
 fn bad(e: impl std::fmt::Display) -> anyhow::Error {
@@ -81,10 +85,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let experiments = args.experiments.is_dir().then_some(args.experiments.as_path());
     let mut report =
-        build_report(&args.results, args.manifest.as_deref(), experiments, options).map_err(|e| match e {
-            analysis::report::ReportError::Io { .. } => anyhow::Error::new(e),
-            other => bad(other),
-        })?;
+        build_report_screened(&args.results, args.manifest.as_deref(), experiments, options, args.exclude_outliers)
+            .map_err(|e| match e {
+                analysis::report::ReportError::Io { .. } => anyhow::Error::new(e),
+                other => bad(other),
+            })?;
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from("report"));
     let md = write_report(&mut report, &out).with_context(|| format!("writing the report into {}", out.display()))?;
     if args.json {
@@ -92,6 +97,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     } else {
         for e in &report.experiments {
             let summary = match (&e.paired, &e.matching) {
+                (Some(p), _) if p.design.is_incomplete() => format!(
+                    "incomplete design, Kendall's statistics not computed; {} participants, {} trials, {} groups on the Thurstone scale{}",
+                    p.screening.observers.len() - p.excluded_participants.len(),
+                    p.matrix_all.total(),
+                    p.groups.len(),
+                    p.recommendation
+                        .as_ref()
+                        .map(|r| format!(
+                            "; {} can replace {} (saves {:.1} %)",
+                            r.cheapest,
+                            r.reference,
+                            r.saving * 100.0
+                        ))
+                        .unwrap_or_default()
+                ),
                 (Some(p), _) => format!(
                     "{} judges, {} groups{}",
                     p.complete_judges,
@@ -110,6 +130,21 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 _ => String::new(),
             };
             println!("{}: {summary}", e.name);
+            if let Some(p) = &e.paired {
+                if !p.excluded_participants.is_empty() {
+                    println!(
+                        "{}: excluded outlying participants (--exclude-outliers): {}",
+                        e.name,
+                        p.excluded_participants.join(", ")
+                    );
+                } else if !p.screening.flagged.is_empty() {
+                    println!(
+                        "{}: flagged participants (kept; --exclude-outliers leaves them out): {}",
+                        e.name,
+                        p.screening.flagged.join(", ")
+                    );
+                }
+            }
             for w in &e.warnings {
                 eprintln!("warning: {w}");
             }
