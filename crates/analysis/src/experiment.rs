@@ -457,15 +457,23 @@ fn analyze_paired(
             by.into_values().collect()
         }
     };
-    let judges_statement = match options.judge_unit {
-        JudgeUnit::Replicate => format!(
-            "Each pass over the pairs is a judge: a participant's repeated sessions, and pairs repeated within a session, count as separate judges (as in the thesis). {complete} complete judges of {} passes; m = {complete}.",
+    let judges_statement = if incomplete {
+        format!(
+            "Incomplete design: participants are the units ({} participants, {} passes over the pairs, {complete_passes} of them complete); the scale's bootstrap resamples participants.",
+            participant_matrices(data).len(),
             replicates.len()
-        ),
-        JudgeUnit::Participant => format!(
-            "Judges pooled per participant ({} participants) for the per-judge table and the bootstrap; triads, agreement and grouping still use the {complete} complete passes (m = {complete}).",
-            units.len()
-        ),
+        )
+    } else {
+        match options.judge_unit {
+            JudgeUnit::Replicate => format!(
+                "Each pass over the pairs is a judge: a participant's repeated sessions, and pairs repeated within a session, count as separate judges (as in the thesis). {complete} complete judges of {} passes; m = {complete}.",
+                replicates.len()
+            ),
+            JudgeUnit::Participant => format!(
+                "Judges pooled per participant ({} participants) for the per-judge table and the bootstrap; triads, agreement and grouping still use the {complete} complete passes (m = {complete}).",
+                units.len()
+            ),
+        }
     };
     let mean_zeta = (!zetas.is_empty()).then(|| zetas.iter().sum::<f64>() / zetas.len() as f64);
     let agreement = if let Design::Incomplete { reason } = &design {

@@ -688,7 +688,7 @@ impl Figure for PairCountFigure {
             ))
             .map_err(err)?;
         }
-        root.draw(&Text::new("times shown", (bx - 4, y0 - 14), text_style(13.0))).map_err(err)?;
+        root.draw(&Text::new("times shown", (bx - 4, y0 - 30), text_style(13.0))).map_err(err)?;
         root.draw(&Rectangle::new([(bx, y0 + side + 20), (bx + bw, y0 + side + 36)], RGBColor(235, 235, 235).filled()))
             .map_err(err)?;
         root.draw(&Text::new(
@@ -739,14 +739,14 @@ impl Figure for ScreeningFigure {
             .margin(12)
             .x_label_area_size(60)
             .y_label_area_size(70)
-            .build_cartesian_2d(-0.6..n as f64 - 0.4, lo - pad..hi + pad)
+            .build_cartesian_2d(-0.6..n as f64 - 0.4, lo - pad..hi + 4.0 * pad)
             .map_err(err)?;
         chart
             .configure_mesh()
             .disable_x_mesh()
             .x_labels(0)
             .y_desc("mean log10 likelihood per trial")
-            .y_label_formatter(&|v| format!("{v:.2}"))
+            .y_label_formatter(&|v| if v.abs() < 1e-9 { "0.00".to_owned() } else { format!("{v:.2}") })
             .label_style(text_style(13.0))
             .axis_desc_style(text_style(14.0))
             .draw()
@@ -757,13 +757,6 @@ impl Figure for ScreeningFigure {
                 .draw_series([PathElement::new(
                     vec![(x_range.0, self.q1), (x_range.1, self.q1)],
                     BLACK.mix(0.6).stroke_width(1),
-                )])
-                .map_err(err)?;
-            chart
-                .draw_series([Text::new(
-                    "Q1",
-                    (x_range.1 - 0.1, self.q1),
-                    text_style(12.0).pos(Pos::new(HPos::Right, VPos::Bottom)),
                 )])
                 .map_err(err)?;
         }
@@ -780,11 +773,15 @@ impl Figure for ScreeningFigure {
                     .map_err(err)?;
                 x += 0.4;
             }
+            // The legend sits top left, above the lowest (leftmost) participants.
             chart
                 .draw_series([Text::new(
-                    format!("threshold: Q1 - {} IQR", crate::screening::OUTLIER_DISTANCE),
-                    (x_range.1 - 0.1, self.threshold),
-                    text_style(12.0).color(&red).pos(Pos::new(HPos::Right, VPos::Bottom)),
+                    format!(
+                        "dashed red: threshold Q1 - {} IQR (flagged below, in red); grey: first quartile Q1",
+                        crate::screening::OUTLIER_DISTANCE
+                    ),
+                    (x_range.0 + 0.2, hi + 3.0 * pad),
+                    text_style(13.0).pos(Pos::new(HPos::Left, VPos::Center)),
                 )])
                 .map_err(err)?;
         }
