@@ -8,6 +8,7 @@ pub mod filters;
 pub mod methods;
 pub mod mlaa;
 pub mod playback;
+pub mod selection;
 pub mod tracer;
 
 /// What the benchmarks of the design's M3-S3-T5 frame (tracer, filters, analytic) share.
@@ -81,6 +82,8 @@ enum Which {
     Antialiasing(antialiasing::Args),
     /// Analysis speed: grouping, bootstrap scaling, W quantiles.
     Analysis(analysis::Args),
+    /// Active pair selection (ASAP) against complete and random designs: accuracy per trial, selection time.
+    Selection(selection::Args),
     /// Runner: sequence decode/upload time, memory, frame pacing.
     Playback(playback::Args),
     /// Milliseconds per frame of the analytic rasterizer, intervals per pixel.
@@ -98,6 +101,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Which::Mlaa(a) => mlaa::run(a),
         Which::Antialiasing(a) => antialiasing::run(a),
         Which::Analysis(a) => analysis::run(a),
+        Which::Selection(a) => selection::run(a),
         Which::Playback(a) => playback::run(a),
         Which::Analytic(a) => analytic::run(a),
         Which::AnalyticAccuracy(a) => analytic_accuracy::run(a),
