@@ -60,20 +60,22 @@ impl Trial {
 pub const SELECTION_STREAM: u64 = 0xA5A9_5E1E;
 
 /// The counted trial `index` of a session with a budgeted selection: ASAP's choice under
-/// `posterior` (required for `asap`), or a random pair.
+/// `posterior` (required for `asap`) among the pairs other than `avoid`, or a random pair.
 pub fn select(
     definition: &ExperimentDefinition,
     seed: u64,
     index: u32,
     posterior: Option<&selection::Posterior>,
+    avoid: &[(usize, usize)],
 ) -> Option<Trial> {
     let mut rng = Pcg64::seed_from_u64(study::seed::mix(seed, &[SELECTION_STREAM, u64::from(index)]));
     let n = definition.stimuli.len();
     let (i, j) = match (definition.selection, posterior) {
-        (PairSelection::Asap { .. }, Some(p)) => selection::best_pair(
+        (PairSelection::Asap { .. }, Some(p)) => selection::best_pair_avoiding(
             p,
             selection::Evaluation::Selective,
             selection::Search::Refine(selection::REFINED_PAIRS),
+            avoid,
             &mut rng,
         )?,
         (PairSelection::Random { .. }, _) if n >= 2 => selection::random_pair(n, &mut rng),

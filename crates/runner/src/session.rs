@@ -496,11 +496,33 @@ impl Session {
         if d.selection.is_complete() {
             return Ok(());
         }
-        let asap = matches!(d.selection, study::experiment::PairSelection::Asap { .. });
-        let shared = match (asap, answered) {
-            (false, _) => None,
-            (true, Some(row)) if !row.practice => {
-                let index = |s: &study::StimulusId| d.stimuli.binary_search(s).ok();
+        let due = self.next == self.schedule.len() && self.next < self.planned;
+        let none_selectable = || RunnerError::Input {
+            what: "selection".into(),
+            message: format!("no pair could be selected among {} stimuli", d.stimuli.len()),
+        };
+        if !matches!(d.selection, study::experiment::PairSelection::Asap { .. }) {
+            if due {
+                let trial = schedule::select(d, self.seed, self.next as u32, None, &[]).ok_or_else(none_selectable)?;
+                self.schedule.push(trial);
+            }
+            return Ok(());
+        }
+        let index = |s: &study::StimulusId| d.stimuli.binary_search(s).ok();
+        let (seed, next) = (self.seed, self.next as u32);
+        let mut chosen: Option<Trial> = None;
+        let mut choose = |post: &selection::Posterior, avoid: &[(usize, usize)]| {
+            if !due {
+                return None;
+            }
+            let trial = schedule::select(d, seed, next, Some(post), avoid)?;
+            let (a, b) = (index(&trial.shown[0])?, index(&trial.shown[1])?);
+            chosen = Some(trial);
+            Some((a.max(b), a.min(b)))
+        };
+        let participant = self.log_participant();
+        match answered {
+            Some(row) if !row.practice => {
                 let (Some(a), Some(b), Some(c)) = (index(&row.shown[0]), index(&row.shown[1]), index(&row.choice))
                 else {
                     return Err(RunnerError::Input {
@@ -508,28 +530,27 @@ impl Session {
                         message: "a counted trial showed a stimulus outside the experiment".into(),
                     });
                 };
-                let participant = self.log_participant();
                 let answer = crate::shared_posterior::RecordedAnswer {
-                    participant,
+                    participant: participant.clone(),
                     session: self.number,
                     trial: row.trial,
                     winner: c,
                     loser: if c == a { b } else { a },
                 };
-                Some(crate::shared_posterior::SharedPosterior::record(&self.results, d, &[answer])?)
+                crate::shared_posterior::SharedPosterior::record(
+                    &self.results,
+                    d,
+                    &[answer],
+                    Some((&participant, &mut choose)),
+                )?;
             }
-            (true, _) if self.next == self.schedule.len() && self.next < self.planned => {
-                Some(crate::shared_posterior::SharedPosterior::open(&self.results, d)?)
+            _ if due => {
+                crate::shared_posterior::SharedPosterior::open(&self.results, d, Some((&participant, &mut choose)))?;
             }
-            (true, _) => None,
-        };
-        if self.next == self.schedule.len() && self.next < self.planned {
-            let trial = schedule::select(d, self.seed, self.next as u32, shared.as_ref().map(|s| &s.posterior))
-                .ok_or_else(|| RunnerError::Input {
-                    what: "selection".into(),
-                    message: format!("no pair could be selected among {} stimuli", d.stimuli.len()),
-                })?;
-            self.schedule.push(trial);
+            _ => {}
+        }
+        if due {
+            self.schedule.push(chosen.ok_or_else(none_selectable)?);
         }
         Ok(())
     }
@@ -1008,6 +1029,7 @@ mod tests {
         let file = exp.join(POSTERIOR_FILE);
         let shared = SharedPosterior::read(&file, &d).unwrap();
         assert_eq!(shared.answers.len(), 24, "an update was lost");
+        assert!(shared.pending.is_empty(), "finished sessions left pairs pending: {:?}", shared.pending);
         assert_eq!(shared.answers, answers_in_logs(&exp, &d).unwrap());
         // The posterior orders the stimuli as the answers did (longer shutter preferred).
         let means = shared.posterior.means();
@@ -1019,7 +1041,7 @@ mod tests {
         // Lost: rebuilt from the logs, byte for byte.
         let bytes = std::fs::read(&file).unwrap();
         std::fs::remove_file(&file).unwrap();
-        SharedPosterior::open(&results, &d).unwrap();
+        SharedPosterior::open(&results, &d, None).unwrap();
         assert_eq!(std::fs::read(&file).unwrap(), bytes);
     }
 

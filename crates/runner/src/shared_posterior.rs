@@ -17,8 +17,11 @@
 //!
 //! **Two participants at once.** Every update is a read-modify-write of the file under the
 //! experiment's selection lock (`study::lock`, waited for up to [`LOCK_WAIT`]), merging by the
-//! answer's key, so concurrent sessions never lose each other's answers. Each then selects its
-//! next pair from the posterior that includes every answer recorded so far.
+//! answer's key, so concurrent sessions never lose each other's answers. Still under the lock,
+//! the session chooses its next pair from the posterior that includes every answer recorded
+//! so far, avoiding the pairs on other participants' screens (`pending`, one per
+//! participant, kept in the file until answered): without that, two sessions at the same
+//! posterior would often choose the same pair.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -64,6 +67,8 @@ struct PosteriorFile {
     experiment_sha256: String,
     stimuli: Vec<String>,
     answers: Vec<RecordedAnswer>,
+    #[serde(default)]
+    pending: BTreeMap<String, [usize; 2]>,
     mean_jod: Vec<f64>,
     sd_jod: Vec<f64>,
 }
@@ -77,7 +82,13 @@ pub struct SharedPosterior {
     pub answers: Vec<RecordedAnswer>,
     /// The posterior fitted to them.
     pub posterior: Posterior,
+    /// The pair each participant has on screen (`i > j`), chosen but not yet answered.
+    pub pending: BTreeMap<String, [usize; 2]>,
 }
+
+/// Chooses a participant's next pair under the lock: given the posterior and the pairs on
+/// other participants' screens, the pair (`i > j`), or `None` when the session is over.
+pub type Chooser<'a> = (&'a str, &'a mut dyn FnMut(&Posterior, &[(usize, usize)]) -> Option<(usize, usize)>);
 
 fn bad(path: &Path, key: &str, message: String) -> RunnerError {
     RunnerError::Selection { path: path.to_owned(), key: key.to_owned(), message }
@@ -138,17 +149,24 @@ fn fit(path: &Path, n: usize, answers: &[RecordedAnswer]) -> Result<Posterior, R
 impl SharedPosterior {
     /// Reads the file under the lock, adds the logs' answers it lacks (rebuilding it from
     /// the logs when it is absent), and writes it back if anything changed.
-    pub fn open(results: &Path, definition: &ExperimentDefinition) -> Result<SharedPosterior, RunnerError> {
-        Self::update(results, definition, &[], true)
+    /// With a chooser, its participant's next pair is chosen and recorded as pending.
+    pub fn open(
+        results: &Path,
+        definition: &ExperimentDefinition,
+        chooser: Option<Chooser<'_>>,
+    ) -> Result<SharedPosterior, RunnerError> {
+        Self::update(results, definition, &[], true, chooser)
     }
 
-    /// Adds `new` answers (already in the logs) under the lock and writes the file.
+    /// Adds `new` answers (already in the logs) under the lock, lets the chooser pick its
+    /// participant's next pair, and writes the file.
     pub fn record(
         results: &Path,
         definition: &ExperimentDefinition,
         new: &[RecordedAnswer],
+        chooser: Option<Chooser<'_>>,
     ) -> Result<SharedPosterior, RunnerError> {
-        Self::update(results, definition, new, false)
+        Self::update(results, definition, new, false, chooser)
     }
 
     /// With `from_logs`, `new` is ignored and every answer in the logs is read, under the
@@ -159,6 +177,7 @@ impl SharedPosterior {
         definition: &ExperimentDefinition,
         new: &[RecordedAnswer],
         from_logs: bool,
+        chooser: Option<Chooser<'_>>,
     ) -> Result<SharedPosterior, RunnerError> {
         let dir = experiment_dir(results, definition);
         std::fs::create_dir_all(&dir).map_err(|source| RunnerError::Io { path: dir.clone(), source })?;
@@ -171,7 +190,13 @@ impl SharedPosterior {
             new
         };
         let path = dir.join(POSTERIOR_FILE);
-        let mut answers = if path.exists() { Self::read(&path, definition)?.answers } else { Vec::new() };
+        let (mut answers, mut pending) = if path.exists() {
+            let read = Self::read(&path, definition)?;
+            (read.answers, read.pending)
+        } else {
+            (Vec::new(), BTreeMap::new())
+        };
+        let pending_before = pending.clone();
         if from_logs && let Some(a) = answers.iter().find(|a| new.binary_search(a).is_err()) {
             return Err(bad(
                 &path,
@@ -193,8 +218,16 @@ impl SharedPosterior {
             }
         }
         let posterior = fit(&path, definition.stimuli.len(), &answers)?;
-        let shared = SharedPosterior { path: path.clone(), answers, posterior };
-        if !exists || shared.answers.len() != before {
+        if let Some((participant, choose)) = chooser {
+            let others: Vec<(usize, usize)> =
+                pending.iter().filter(|(p, _)| *p != participant).map(|(_, &[i, j])| (i, j)).collect();
+            match choose(&posterior, &others) {
+                Some((i, j)) => pending.insert(participant.to_owned(), [i, j]),
+                None => pending.remove(participant),
+            };
+        }
+        let shared = SharedPosterior { path: path.clone(), answers, posterior, pending };
+        if !exists || shared.answers.len() != before || shared.pending != pending_before {
             shared.write(definition)?;
         }
         Ok(shared)
@@ -256,6 +289,9 @@ impl SharedPosterior {
                 ),
             ));
         }
+        if let Some((p, pair)) = file.pending.iter().find(|(_, pair)| pair[0] >= n || pair[1] >= pair[0]) {
+            return Err(bad(path, "pending", format!("{p}: {pair:?} is not a pair (i > j) of the {n} stimuli")));
+        }
         if !file.answers.windows(2).all(|w| w[0] < w[1]) {
             return Err(bad(path, "answers", "are not sorted by participant, session and trial, or repeat one".into()));
         }
@@ -273,7 +309,7 @@ impl SharedPosterior {
                 "damaged: disagrees with a fit of the file's answers (remove the file to rebuild it from the response logs)".into(),
             ));
         }
-        Ok(SharedPosterior { path: path.to_owned(), answers: file.answers, posterior })
+        Ok(SharedPosterior { path: path.to_owned(), answers: file.answers, posterior, pending: file.pending })
     }
 
     fn write(&self, definition: &ExperimentDefinition) -> Result<(), RunnerError> {
@@ -284,6 +320,7 @@ impl SharedPosterior {
             experiment_sha256: definition.sha256.clone(),
             stimuli: definition.stimuli.iter().map(ToString::to_string).collect(),
             answers: self.answers.clone(),
+            pending: self.pending.clone(),
             mean_jod,
             sd_jod,
         };

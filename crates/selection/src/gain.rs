@@ -210,10 +210,24 @@ pub fn best_pair(
     search: Search,
     rng: &mut impl Rng,
 ) -> Option<(usize, usize)> {
+    best_pair_avoiding(post, evaluation, search, &[], rng)
+}
+
+/// [`best_pair`] among the pairs other than `avoid` (pairs `(i, j)` with `i > j`, e.g. those
+/// on other participants' screens, which the posterior does not know about yet).
+pub fn best_pair_avoiding(
+    post: &Posterior,
+    evaluation: Evaluation,
+    search: Search,
+    avoid: &[(usize, usize)],
+    rng: &mut impl Rng,
+) -> Option<(usize, usize)> {
+    let allowed = |g: &PairGain| !avoid.contains(&(g.i, g.j));
     let all = match search {
-        Search::Full => gains(post, evaluation, rng),
+        Search::Full => gains(post, evaluation, rng).into_iter().filter(allowed).collect(),
         Search::Refine(n) => {
             let mut online = gains_by(post, evaluation, false, rng);
+            online.retain(allowed);
             online.sort_by(|a, b| b.gain.total_cmp(&a.gain).then((a.i, a.j).cmp(&(b.i, b.j))));
             online.truncate(n.max(1));
             let mut overlay = Overlay::new(post);
@@ -351,6 +365,16 @@ mod tests {
                 x = p[x];
             }
             x
+        }
+    }
+
+    #[test]
+    fn an_avoided_pair_is_not_chosen() {
+        let post = Posterior::prior(3);
+        for seed in 0..20 {
+            let mut rng = Pcg64::seed_from_u64(seed);
+            let pair = best_pair_avoiding(&post, Evaluation::Every, Search::Refine(2), &[(1, 0), (2, 0)], &mut rng);
+            assert_eq!(pair, Some((2, 1)));
         }
     }
 

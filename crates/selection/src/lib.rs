@@ -14,7 +14,9 @@
 pub mod gain;
 pub mod posterior;
 
-pub use gain::{Evaluation, PairGain, REFINED_PAIRS, Search, best_pair, gains, pair_gain, spanning_batch};
+pub use gain::{
+    Evaluation, PairGain, REFINED_PAIRS, Search, best_pair, best_pair_avoiding, gains, pair_gain, spanning_batch,
+};
 pub use posterior::{Comparison, JOD_PER_UNIT, Posterior};
 
 use rand::Rng;

@@ -63,7 +63,6 @@ pub(super) struct RawPairs {
     pub(super) budget: Option<u32>,
 }
 
-
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawRandomisation {
