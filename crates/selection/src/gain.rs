@@ -368,6 +368,45 @@ mod tests {
         }
     }
 
+    /// ASAP's batches over 45 stimuli with answers from a Thurstone observer: every fit
+    /// along the way converges, to the fixed point the sweeps reach without extrapolation.
+    /// (An extrapolation that was not checked once blew a fit up here, to scores of 200.)
+    #[test]
+    fn fits_along_an_asap_run_converge_to_the_unaccelerated_fixed_point() {
+        let n = 45;
+        let mut rng = Pcg64::seed_from_u64(110);
+        let uniform = |rng: &mut Pcg64| crate::unit_f64(rng);
+        let truth: Vec<f64> = (0..n)
+            .map(|_| {
+                let (a, b) = (uniform(&mut rng).max(1e-12), uniform(&mut rng));
+                (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+            })
+            .collect();
+        let mut list = Vec::new();
+        let mut queue: Vec<(usize, usize)> = Vec::new();
+        while list.len() < 2300 {
+            if queue.is_empty() {
+                let post = Posterior::fit(n, &list).unwrap();
+                assert!(post.sweeps() < crate::posterior::MAX_SWEEPS, "no convergence at {}", list.len());
+                if list.len() % 4 == 0 {
+                    let plain = Posterior::fit_plain(n, &list);
+                    for (a, b) in post.means().iter().zip(plain.means()) {
+                        assert!((a - b).abs() < 1e-7, "{} comparisons: {a} vs {b}", list.len());
+                    }
+                }
+                queue = spanning_batch(&post, Evaluation::Selective, &mut rng);
+                queue.reverse();
+            }
+            let (i, j) = queue.pop().unwrap();
+            let p = crate::posterior::normal_cdf(truth[i] - truth[j]);
+            list.push(if uniform(&mut rng) < p {
+                Comparison { winner: i, loser: j }
+            } else {
+                Comparison { winner: j, loser: i }
+            });
+        }
+    }
+
     #[test]
     fn an_avoided_pair_is_not_chosen() {
         let post = Posterior::prior(3);

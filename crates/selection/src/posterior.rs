@@ -175,32 +175,63 @@ impl Posterior {
             p.adjacency[c.winner].push(g);
             p.adjacency[c.loser].push(g);
         }
-        p.converge();
+        p.converge(true);
         Ok(p)
     }
 
-    fn converge(&mut self) {
+    /// [`Posterior::fit`] without the extrapolation (for tests: the same fixed point, slowly).
+    #[cfg(test)]
+    pub(crate) fn fit_plain(n: usize, comparisons: &[Comparison]) -> Posterior {
+        let mut p = Posterior::prior(n);
+        for &c in comparisons {
+            let g = p.comparisons.len() as u32;
+            p.comparisons.push(c);
+            p.messages.push([Natural::default(); 2]);
+            p.adjacency[c.winner].push(g);
+            p.adjacency[c.loser].push(g);
+        }
+        p.converge(false);
+        p
+    }
+
+    fn converge(&mut self, accelerate: bool) {
         self.sweeps = 0;
         // The slowest mode of the sweeps is a common shift of every score, which only the
         // weak prior pins: it decays geometrically, by the ratio of prior to total precision
-        // per sweep. Once three sweeps show that ratio, the shift is extrapolated to its limit
-        // (Aitken) by moving every message; the fixed point is unchanged, and the sweeps that
-        // follow must still meet the tolerance.
+        // per sweep. Once four sweeps show the same ratio (within 2 %), the shift is
+        // extrapolated to its limit (Aitken) by moving every message; the fixed point is
+        // unchanged, and the sweeps that follow must still meet the tolerance. Where the
+        // slow mode is not a pure shift the extrapolation can overshoot: if the sweep after
+        // it changes the marginals more than the sweep before it did, the state before the
+        // extrapolation is restored and later extrapolations go half as far (none after three
+        // such restores).
         let mut centres: Vec<f64> = Vec::new();
+        let mut saved: Option<(Vec<[Natural; 2]>, Vec<Natural>, f64)> = None;
+        let mut step = if accelerate { 1.0 } else { 0.0 };
         while self.sweeps < MAX_SWEEPS {
             self.sweeps += 1;
             let mut change = 0.0f64;
             for g in 0..self.comparisons.len() {
                 change = change.max(self.update_factor(g));
             }
+            if let Some((messages, marginals, before)) = saved.take()
+                && (change.is_nan() || change > before)
+            {
+                self.messages = messages;
+                self.marginals = marginals;
+                step *= 0.5;
+                centres.clear();
+                continue;
+            }
             if change < TOLERANCE {
                 break;
             }
             centres.push(self.marginals.iter().map(|m| m.mean()).sum::<f64>() / self.len() as f64);
-            if let [.., a, b, c] = centres[..] {
-                let ratio = (c - b) / (b - a);
-                if ratio > 0.5 && ratio < 1.0 && (c - b).abs() > TOLERANCE {
-                    self.shift((c - b) * ratio / (1.0 - ratio));
+            if let [.., a, b, c, d] = centres[..] {
+                let (r1, r2) = ((c - b) / (b - a), (d - c) / (c - b));
+                if step > 0.1 && r2 > 0.5 && r2 < 1.0 && (r1 - r2).abs() < 0.02 * r2 && (d - c).abs() > TOLERANCE {
+                    saved = Some((self.messages.clone(), self.marginals.clone(), change));
+                    self.shift(step * (d - c) * r2 / (1.0 - r2));
                     centres.clear();
                 }
             }

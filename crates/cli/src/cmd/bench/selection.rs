@@ -95,6 +95,20 @@ pub struct Args {
     /// Print the full result as JSON (otherwise a summary).
     #[arg(long)]
     json: bool,
+    /// The scores compared with the truth: `map`, the scale `analyze` reports (Thurstone MAP,
+    /// prior sd 3 JOD), or `posterior`, ASAP's own posterior means (prior sd 1.05 JOD) fitted
+    /// to the same answers whatever chose the pairs.
+    #[arg(long, value_enum, default_value_t = Scores::Map)]
+    scores: Scores,
+}
+
+/// Which estimate of the scores is judged against the truth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Scores {
+    /// `analysis::scaling::fit_case_v` with the analysis's prior.
+    Map,
+    /// `selection::Posterior::fit`'s means, in JOD.
+    Posterior,
 }
 
 /// A way of choosing the next pair.
@@ -305,6 +319,7 @@ pub fn spearman(a: &[f64], b: &[f64]) -> f64 {
 
 /// One repetition of one method: `(rmse, spearman)` at each checkpoint up to `max_trials`.
 fn simulate(
+    scores_by: Scores,
     method: Method,
     truth: &[f64],
     max_trials: usize,
@@ -358,7 +373,12 @@ fn simulate(
         matrix.add(c.winner, c.loser);
         if next.peek() == Some(&trial) {
             next.next();
-            let (scores, _) = fit_case_v(&matrix, prior_sd, fit.as_deref());
+            let scores = match scores_by {
+                Scores::Map => fit_case_v(&matrix, prior_sd, fit.as_deref()).0,
+                Scores::Posterior => {
+                    Posterior::fit(n, &answers)?.means().iter().map(|m| m * selection::JOD_PER_UNIT).collect()
+                }
+            };
             out.push((rmse(&scores, truth), spearman(&scores, truth)));
             fit = Some(scores);
         }
@@ -427,6 +447,7 @@ fn band(values: &[f64]) -> (f64, f64, f64) {
 
 /// Runs every plan's repetitions of every method on `threads` threads.
 pub fn run_study(
+    scores_by: Scores,
     plans: &[Plan],
     seed: u64,
     threads: usize,
@@ -467,6 +488,7 @@ pub fn run_study(
                     let truth = true_scores(plan.stimuli, seed_for(seed, plan.stimuli, job.repetition, None));
                     let start = Instant::now();
                     let run = simulate(
+                        scores_by,
                         job.method,
                         &truth,
                         plan.budget(job.method).1,
@@ -954,7 +976,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             )
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
-        let curves = run_study(&plans, args.seed, threads, &bar)?;
+        let curves = run_study(args.scores, &plans, args.seed, threads, &bar)?;
         bar.finish_and_clear();
         write_study(&curves, &args.out)?;
         let found = matches(&curves);
@@ -975,7 +997,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         "threads": threads,
         "true_scores": format!("N(0, {TRUE_SD_JOD}^2) JOD per stimulus, drawn per repetition and centred"),
         "observer": "P(i beats j) = Phi((s_i - s_j) / 1.4826), s in JOD",
-        "scaling": format!("analysis::scaling::fit_case_v, prior sd {} JOD", ScaleOptions::default().prior_sd),
+        "scaling": match args.scores {
+            Scores::Map => format!("analysis::scaling::fit_case_v, prior sd {} JOD", ScaleOptions::default().prior_sd),
+            Scores::Posterior => "selection::Posterior::fit means x JOD_PER_UNIT (prior variance 0.5 model units)".to_owned(),
+        },
         "band": "mean +- 1.96 standard errors over repetitions",
         "refined_pairs": REFINED_PAIRS,
         "plans": plans.iter().map(|p| json!({
@@ -1106,7 +1131,8 @@ mod tests {
             sequential_repetitions: 12,
             sequential_max_trials: 5 * 36,
         };
-        let curves = run_study(std::slice::from_ref(&plan), 7, 2, &indicatif::ProgressBar::hidden()).unwrap();
+        let curves =
+            run_study(Scores::Map, std::slice::from_ref(&plan), 7, 2, &indicatif::ProgressBar::hidden()).unwrap();
         assert_eq!(curves.len(), 4);
         let curve = |m: Method| curves.iter().find(|c| c.method == m.name()).unwrap();
         let at = |m: Method, t: usize| curve(m).points.iter().find(|p| p.trials == t).unwrap().clone();
