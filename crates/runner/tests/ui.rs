@@ -876,3 +876,49 @@ fn each_eye_region_shows_its_own_eye_on_the_gpu() {
         drop(h);
     }
 }
+
+/// An ASAP experiment in the window: each counted trial is chosen when it is due, the
+/// progress counts the budget, and every answer reaches the shared posterior.
+#[test]
+fn an_asap_session_runs_in_the_window_to_its_budget() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = definition(dir.path(), "2afc");
+    let text = std::fs::read_to_string(&d.path).unwrap() + "\n[pairs]\nselection = \"asap\"\nbudget = 4\n";
+    std::fs::write(&d.path, text).unwrap();
+    let d = ExperimentDefinition::read(&d.path).unwrap();
+    assert_eq!(d.selection, study::experiment::PairSelection::Asap { budget: 4 });
+    let mut h = harness(config_of(d.clone(), dir.path(), 16, 8));
+    start(&mut h, "A01");
+    h.get_by_label("Begin practice").click();
+    until(&mut h, "answer");
+    h.key_press(Key::Num1);
+    h.step();
+    until(&mut h, "practice-over");
+    h.key_press(Key::Space);
+    h.step();
+    for k in 0..4 {
+        if k == 2 {
+            until(&mut h, "break");
+            assert!(h.query_by_label_contains("2 of 4 trials done").is_some());
+            h.key_press(Key::Space);
+            h.step();
+        }
+        until(&mut h, "answer");
+        h.key_press(if k % 2 == 0 { Key::Num1 } else { Key::Num2 });
+        h.step();
+    }
+    until(&mut h, "done");
+    let path = h.state().session().unwrap().path().to_owned();
+    drop(h);
+    let log = SessionLog::read(&path).unwrap();
+    assert!(log.completed);
+    assert_eq!(log.header.get("selection"), Some("asap"));
+    assert_eq!(log.rows.iter().filter(|(_, r)| !r.practice).count(), 4);
+    let shared = runner::shared_posterior::SharedPosterior::read(
+        &dir.path().join("results/ui-2afc").join(runner::shared_posterior::POSTERIOR_FILE),
+        &d,
+    )
+    .unwrap();
+    assert_eq!(shared.answers.len(), 4);
+    assert!(shared.pending.is_empty());
+}
