@@ -21,36 +21,6 @@ fn text(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-/// Spearman's rank correlation (average ranks for ties).
-fn spearman(a: &[f64], b: &[f64]) -> f64 {
-    fn ranks(x: &[f64]) -> Vec<f64> {
-        let mut order: Vec<usize> = (0..x.len()).collect();
-        order.sort_by(|&i, &j| x[i].total_cmp(&x[j]));
-        let mut r = vec![0.0; x.len()];
-        let mut k = 0;
-        while k < order.len() {
-            let mut end = k;
-            while end + 1 < order.len() && x[order[end + 1]] == x[order[k]] {
-                end += 1;
-            }
-            for &i in &order[k..=end] {
-                r[i] = (k + end) as f64 / 2.0;
-            }
-            k = end + 1;
-        }
-        r
-    }
-    let (ra, rb) = (ranks(a), ranks(b));
-    let mean = (a.len() as f64 - 1.0) / 2.0;
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in ra.iter().zip(&rb) {
-        sab += (x - mean) * (y - mean);
-        saa += (x - mean) * (x - mean);
-        sbb += (y - mean) * (y - mean);
-    }
-    sab / (saa * sbb).sqrt()
-}
-
 #[test]
 fn the_whole_mono_set_with_asap_runs_end_to_end_and_groups_by_quality() {
     let root = repo_root();
@@ -148,7 +118,7 @@ fn the_whole_mono_set_with_asap_runs_end_to_end_and_groups_by_quality() {
         report["stimuli"].as_array().unwrap().iter().map(|s| s.as_str().unwrap().parse().unwrap()).collect();
     let scores: Vec<f64> = paired["scale"]["scores"].as_array().unwrap().iter().map(|s| s.as_f64().unwrap()).collect();
     let truth: Vec<f64> = stimuli.iter().map(runner::simulate::rule_quality).collect();
-    let rho = spearman(&scores, &truth);
+    let rho = study::stats::spearman(&scores, &truth);
     assert!(rho > 0.7, "rank correlation of the scale with the latent quality {rho}");
     let worst = truth.iter().copied().fold(f64::INFINITY, f64::min);
     let best = (0..scores.len()).max_by(|&a, &b| scores[a].total_cmp(&scores[b])).unwrap();

@@ -977,9 +977,6 @@ mod tests {
 
     fn asap_setup(budget: u32) -> (tempfile::TempDir, ExperimentDefinition, StimulusSet) {
         let dir = tempfile::tempdir().unwrap();
-        let base = crate::schedule::tests::definition("2afc", 1);
-        let text = std::fs::read_to_string(&base.path).unwrap_or_default();
-        assert!(text.is_empty(), "the fixture is parsed from text, not a file");
         let toml = study::testing::ExperimentToml {
             task: "2afc".into(),
             question: "q".into(),

@@ -90,6 +90,14 @@ pub struct SharedPosterior {
 /// other participants' screens, the pair (`i > j`), or `None` when the session is over.
 pub type Chooser<'a> = (&'a str, &'a mut dyn FnMut(&Posterior, &[(usize, usize)]) -> Option<(usize, usize)>);
 
+/// The file as read: its posterior when it was checked.
+struct ReadFile {
+    path: PathBuf,
+    answers: Vec<RecordedAnswer>,
+    pending: BTreeMap<String, [usize; 2]>,
+    posterior: Option<Posterior>,
+}
+
 fn bad(path: &Path, key: &str, message: String) -> RunnerError {
     RunnerError::Selection { path: path.to_owned(), key: key.to_owned(), message }
 }
@@ -190,11 +198,13 @@ impl SharedPosterior {
             new
         };
         let path = dir.join(POSTERIOR_FILE);
-        let (mut answers, mut pending) = if path.exists() {
-            let read = Self::read(&path, definition)?;
-            (read.answers, read.pending)
-        } else {
-            (Vec::new(), BTreeMap::new())
+        // A session start checks the file's posterior against its answers; an answer's update
+        // refits them anyway and writes the result.
+        let existing = if path.exists() { Some(Self::read_checked(&path, definition, from_logs)?) } else { None };
+        let exists = existing.is_some();
+        let (mut answers, mut pending, checked) = match existing {
+            Some(read) => (read.answers, read.pending, read.posterior),
+            None => (Vec::new(), BTreeMap::new(), None),
         };
         let pending_before = pending.clone();
         if from_logs && let Some(a) = answers.iter().find(|a| new.binary_search(a).is_err()) {
@@ -211,13 +221,15 @@ impl SharedPosterior {
             ));
         }
         let before = answers.len();
-        let exists = path.exists();
         for a in new {
             if let Err(at) = answers.binary_search(a) {
                 answers.insert(at, a.clone());
             }
         }
-        let posterior = fit(&path, definition.stimuli.len(), &answers)?;
+        let posterior = match checked {
+            Some(p) if answers.len() == before => p,
+            _ => fit(&path, definition.stimuli.len(), &answers)?,
+        };
         if let Some((participant, choose)) = chooser {
             let others: Vec<(usize, usize)> =
                 pending.iter().filter(|(p, _)| *p != participant).map(|(_, &[i, j])| (i, j)).collect();
@@ -236,6 +248,16 @@ impl SharedPosterior {
     /// Reads and checks the file: format, experiment, stimuli, answers in range, and a
     /// posterior equal to a fit of its answers.
     pub fn read(path: &Path, definition: &ExperimentDefinition) -> Result<SharedPosterior, RunnerError> {
+        let read = Self::read_checked(path, definition, true)?;
+        let posterior = match read.posterior {
+            Some(p) => p,
+            None => fit(path, definition.stimuli.len(), &read.answers)?,
+        };
+        Ok(SharedPosterior { path: read.path, answers: read.answers, posterior, pending: read.pending })
+    }
+
+    /// [`SharedPosterior::read`], fitting and comparing the posterior only with `check_fit`.
+    fn read_checked(path: &Path, definition: &ExperimentDefinition, check_fit: bool) -> Result<ReadFile, RunnerError> {
         let text = std::fs::read_to_string(path).map_err(|source| RunnerError::Io { path: path.to_owned(), source })?;
         let file: PosteriorFile = serde_json::from_str(&text).map_err(|e| {
             let message = e.to_string();
@@ -295,6 +317,14 @@ impl SharedPosterior {
         if !file.answers.windows(2).all(|w| w[0] < w[1]) {
             return Err(bad(path, "answers", "are not sorted by participant, session and trial, or repeat one".into()));
         }
+        if !check_fit {
+            return Ok(ReadFile {
+                path: path.to_owned(),
+                answers: file.answers,
+                pending: file.pending,
+                posterior: None,
+            });
+        }
         let posterior = fit(path, n, &file.answers)?;
         let (mean, sd) = jod(&posterior);
         // JSON's decimal text round-trips a float to within an ulp, not always exactly.
@@ -309,7 +339,7 @@ impl SharedPosterior {
                 "damaged: disagrees with a fit of the file's answers (remove the file to rebuild it from the response logs)".into(),
             ));
         }
-        Ok(SharedPosterior { path: path.to_owned(), answers: file.answers, posterior, pending: file.pending })
+        Ok(ReadFile { path: path.to_owned(), answers: file.answers, pending: file.pending, posterior: Some(posterior) })
     }
 
     fn write(&self, definition: &ExperimentDefinition) -> Result<(), RunnerError> {

@@ -110,11 +110,46 @@ pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
     cov / (va * vb).sqrt()
 }
 
+/// Ranks from 1, tied values given their mean rank (mid-ranks).
+pub fn ranks(x: &[f64]) -> Vec<f64> {
+    let mut order: Vec<usize> = (0..x.len()).collect();
+    order.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
+    let mut out = vec![0.0; x.len()];
+    let mut k = 0;
+    while k < order.len() {
+        let mut e = k;
+        while e + 1 < order.len() && x[order[e + 1]] == x[order[k]] {
+            e += 1;
+        }
+        let rank = (k + e) as f64 / 2.0 + 1.0;
+        for &o in &order[k..=e] {
+            out[o] = rank;
+        }
+        k = e + 1;
+    }
+    out
+}
+
+/// Spearman's rank correlation: the [`correlation`] of the mid-[`ranks`] (NaN when either
+/// sample is constant).
+pub fn spearman(a: &[f64], b: &[f64]) -> f64 {
+    correlation(&ranks(a), &ranks(b))
+}
+
 #[cfg(test)]
 mod tests {
     use proptest::prelude::*;
 
     use super::*;
+
+    #[test]
+    fn spearman_uses_mid_ranks() {
+        assert_eq!(ranks(&[3.0, 1.0, 3.0, 2.0]), [3.5, 1.0, 3.5, 2.0]);
+        assert!((spearman(&[1.0, 2.0, 3.0], &[10.0, 20.0, 40.0]) - 1.0).abs() < 1e-12);
+        // Ranks (1.5, 1.5, 3) against (1, 2, 3).
+        assert!((spearman(&[0.0, 0.0, 1.0], &[1.0, 2.0, 3.0]) - 0.866_025_403_784_438_6).abs() < 1e-12);
+        assert!(spearman(&[1.0, 1.0], &[1.0, 2.0]).is_nan());
+    }
 
     #[test]
     fn correlation_of_lines_and_of_a_symmetric_pair() {

@@ -92,6 +92,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             })?;
     let out = args.out.clone().unwrap_or_else(|| PathBuf::from("report"));
     let md = write_report(&mut report, &out).with_context(|| format!("writing the report into {}", out.display()))?;
+    let replacement = |p: &analysis::experiment::PairedReport| {
+        p.recommendation
+            .as_ref()
+            .map(|r| format!("; {} can replace {} (saves {:.1} %)", r.cheapest, r.reference, r.saving * 100.0))
+            .unwrap_or_default()
+    };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -102,30 +108,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                     p.screening.observers.len() - p.excluded_participants.len(),
                     p.matrix_all.total(),
                     p.groups.len(),
-                    p.recommendation
-                        .as_ref()
-                        .map(|r| format!(
-                            "; {} can replace {} (saves {:.1} %)",
-                            r.cheapest,
-                            r.reference,
-                            r.saving * 100.0
-                        ))
-                        .unwrap_or_default()
+                    replacement(p)
                 ),
-                (Some(p), _) => format!(
-                    "{} judges, {} groups{}",
-                    p.complete_judges,
-                    p.groups.len(),
-                    p.recommendation
-                        .as_ref()
-                        .map(|r| format!(
-                            "; {} can replace {} (saves {:.1} %)",
-                            r.cheapest,
-                            r.reference,
-                            r.saving * 100.0
-                        ))
-                        .unwrap_or_default()
-                ),
+                (Some(p), _) => format!("{} judges, {} groups{}", p.complete_judges, p.groups.len(), replacement(p)),
                 (None, Some(m)) => format!("matching accuracy {:.2} % of {} trials", m.overall * 100.0, m.trials),
                 _ => String::new(),
             };

@@ -289,32 +289,10 @@ pub fn rmse(fit: &[f64], truth: &[f64]) -> f64 {
     (f.iter().zip(&t).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / f.len().max(1) as f64).sqrt()
 }
 
-/// Ranks from 1, ties given their mean rank.
-fn ranks(x: &[f64]) -> Vec<f64> {
-    let mut order: Vec<usize> = (0..x.len()).collect();
-    order.sort_by(|&a, &b| x[a].total_cmp(&x[b]));
-    let mut out = vec![0.0; x.len()];
-    let mut k = 0;
-    while k < order.len() {
-        let mut e = k;
-        while e + 1 < order.len() && x[order[e + 1]] == x[order[k]] {
-            e += 1;
-        }
-        let rank = (k + e) as f64 / 2.0 + 1.0;
-        for &o in &order[k..=e] {
-            out[o] = rank;
-        }
-        k = e + 1;
-    }
-    out
-}
-
-/// Spearman's rank correlation (Pearson's of the mid-ranks); 0 where either is constant.
+/// Spearman's rank correlation ([`study::stats::spearman`]); 0 where either is constant.
 pub fn spearman(a: &[f64], b: &[f64]) -> f64 {
-    let (ra, rb) = (centred(&ranks(a)), centred(&ranks(b)));
-    let (sab, saa, sbb) =
-        ra.iter().zip(&rb).fold((0.0, 0.0, 0.0), |(ab, aa, bb), (x, y)| (ab + x * y, aa + x * x, bb + y * y));
-    if saa > 0.0 && sbb > 0.0 { sab / (saa * sbb).sqrt() } else { 0.0 }
+    let r = study::stats::spearman(a, b);
+    if r.is_nan() { 0.0 } else { r }
 }
 
 /// One repetition of one method: `(rmse, spearman)` at each checkpoint up to `max_trials`.
