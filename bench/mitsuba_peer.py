@@ -3,7 +3,8 @@
 
 Reads the static benchmark frame that blurlab wrote (scene.json: camera, sphere with its
 baked albedo texture, floor, environment map EXR, integrator depth, samples per pixel),
-renders it with Mitsuba 3's `path` integrator in the `scalar_rgb` variant, and writes:
+renders it with Mitsuba 3's `path` integrator in the variant scene.json names
+(`scalar_rgb`, or `llvm_ad_rgb`, the vectorised JIT one), and writes:
 
   mitsuba-seed1.exr, mitsuba-seed2.exr   two independently seeded renders at the same spp
   mitsuba.json                           timings and versions
@@ -26,9 +27,17 @@ def main():
     with open(os.path.join(out_dir, "scene.json")) as f:
         desc = json.load(f)
 
+    variant = desc.get("mitsuba_variant", "scalar_rgb")
+    if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
+        # Dr.Jit loads the system's LLVM; Debian's LLVM 19 works (LLVM 15 aborts in
+        # Mitsuba's kernels).
+        debian = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
+        if os.path.exists(debian):
+            os.environ["DRJIT_LIBLLVM_PATH"] = debian
+    import drjit as dr
     import mitsuba as mi
 
-    mi.set_variant("scalar_rgb")
+    mi.set_variant(variant)
     T = mi.ScalarTransform4f
 
     cam = desc["camera"]
@@ -110,12 +119,16 @@ def main():
     for seed in (1, 2):
         t0 = time.perf_counter()
         img = mi.render(loaded, spp=spp, seed=seed)
+        # The JIT variants return before the kernel has run: wait for it.
+        dr.eval(img)
+        dr.sync_thread()
         secs = time.perf_counter() - t0
         mi.Bitmap(img).write(os.path.join(out_dir, f"mitsuba-seed{seed}.exr"))
         runs.append(secs)
     w, h = int(cam["width"]), int(cam["height"])
     result = {
-        "renderer": f"mitsuba {mi.__version__} scalar_rgb path",
+        "renderer": f"mitsuba {mi.__version__} {variant} path",
+        "variant": variant,
         "sampler": sampler,
         "threads": os.cpu_count(),
         "samples_per_pixel": spp,

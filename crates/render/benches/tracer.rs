@@ -1,5 +1,5 @@
 //! The tracer benchmark without the CLI: `cargo bench -p blurlab-render --bench tracer --
-//! [SPP] [none|mitsuba]` prints the same JSON as `blurlab bench tracer --json` (run from the
+//! [SPP] [none|mitsuba] [SAMPLER] [VARIANT]` prints the same JSON as `blurlab bench tracer --json` (run from the
 //! workspace root so `stimuli/` and `bench/mitsuba_peer.py` are found).
 
 use render::measure::tracer::{BenchOptions, run_benchmark};
@@ -14,6 +14,7 @@ fn main() {
         python: "python3".into(),
         peer_script: root.join("bench/mitsuba_peer.py"),
         mitsuba_sampler: args.get(2).cloned().unwrap_or_else(|| "independent".into()),
+        mitsuba_variant: args.get(3).cloned().unwrap_or_else(|| "scalar_rgb".into()),
         work: None,
         rounds: 3,
     };

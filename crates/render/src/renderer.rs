@@ -1,8 +1,10 @@
 //! Which device renders: the CPU tracer or the GPU tracer ([`DeviceChoice`], the
-//! `--device auto|cpu|gpu` of the command line), opened once per run with its environment
-//! map ([`Renderer`]). `auto` takes a hardware GPU adapter when there is one and the CPU
-//! otherwise: a software adapter (lavapipe) is slower than the CPU tracer, so only
-//! `--device gpu` uses one.
+//! `--device auto|cpu|cpu-reference|gpu` of the command line), opened once per run with its
+//! environment map ([`Renderer`]). `auto` takes a hardware GPU adapter when there is one and
+//! the CPU otherwise: a software adapter (lavapipe) is slower than the CPU tracer, so only
+//! `--device gpu` uses one. On the CPU the tracer is the wide one
+//! ([`crate::methods::tracer::wide`], the GPU kernel's f32 algorithm in SIMD lanes);
+//! `cpu-reference` renders with the f64 reference tracer instead, for checks.
 
 use std::fmt;
 use std::str::FromStr;
@@ -18,6 +20,8 @@ use crate::method::{RenderError, RenderedFrame, compose_eyes};
 use crate::methods::GpuHosts;
 use crate::methods::post_process::FilterError;
 use crate::methods::tracer::PendingFrame;
+use crate::methods::tracer::wide::Isa;
+use crate::shading::gpu::params::EnvTables;
 
 /// The `--device` of a render.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -25,8 +29,10 @@ pub enum DeviceChoice {
     /// A hardware GPU adapter if there is one, else the CPU.
     #[default]
     Auto,
-    /// The CPU tracer.
+    /// The CPU: the wide tracer.
     Cpu,
+    /// The CPU: the f64 reference tracer (slower; for tests and checks).
+    CpuReference,
     /// A GPU adapter, hardware first, then software (lavapipe); an error without one.
     Gpu,
 }
@@ -36,6 +42,7 @@ impl fmt::Display for DeviceChoice {
         f.write_str(match self {
             DeviceChoice::Auto => "auto",
             DeviceChoice::Cpu => "cpu",
+            DeviceChoice::CpuReference => "cpu-reference",
             DeviceChoice::Gpu => "gpu",
         })
     }
@@ -48,8 +55,9 @@ impl FromStr for DeviceChoice {
         match s {
             "auto" => Ok(DeviceChoice::Auto),
             "cpu" => Ok(DeviceChoice::Cpu),
+            "cpu-reference" => Ok(DeviceChoice::CpuReference),
             "gpu" => Ok(DeviceChoice::Gpu),
-            other => Err(format!("unknown device `{other}`; expected auto, cpu or gpu")),
+            other => Err(format!("unknown device `{other}`; expected auto, cpu, cpu-reference or gpu")),
         }
     }
 }
@@ -97,6 +105,15 @@ pub(crate) fn add_seconds(a: Option<f64>, b: Option<f64>) -> Option<f64> {
 pub struct Renderer<'env> {
     env: &'env EnvironmentMap,
     gpu: Option<GpuHosts>,
+    cpu: CpuTracer,
+}
+
+/// The tracer a renderer without a GPU uses.
+pub enum CpuTracer {
+    /// The wide tracer, with the environment's tables in its layout.
+    Wide(EnvTables),
+    /// The f64 reference tracer.
+    Reference,
 }
 
 /// A frame on its way: rendered already (CPU) or submitted to the GPU.
@@ -150,6 +167,7 @@ impl<'env> Renderer<'env> {
     pub fn open(choice: DeviceChoice, env: &'env EnvironmentMap) -> Result<Self, DeviceError> {
         let adapters = match choice {
             DeviceChoice::Cpu => return Ok(Renderer::cpu(env)),
+            DeviceChoice::CpuReference => return Ok(Renderer::cpu_reference(env)),
             DeviceChoice::Auto => AdapterChoice::HardwareOnly,
             DeviceChoice::Gpu => AdapterChoice::HardwareThenSoftware,
         };
@@ -169,7 +187,7 @@ impl<'env> Renderer<'env> {
             })
             .map(|()| hosts);
         match opened {
-            Ok(gpu) => Ok(Renderer { env, gpu: Some(gpu) }),
+            Ok(gpu) => Ok(Renderer { env, gpu: Some(gpu), cpu: CpuTracer::Reference }),
             // `auto` promises a render: a GPU that cannot run the tracer leaves it to the CPU.
             Err(e) if choice == DeviceChoice::Auto => {
                 eprintln!("warning: {e}; rendering on the CPU instead");
@@ -179,9 +197,19 @@ impl<'env> Renderer<'env> {
         }
     }
 
-    /// The CPU tracer.
+    /// The wide CPU tracer.
     pub fn cpu(env: &'env EnvironmentMap) -> Self {
-        Renderer { env, gpu: None }
+        Renderer { env, gpu: None, cpu: CpuTracer::Wide(EnvTables::new(env)) }
+    }
+
+    /// The f64 reference CPU tracer.
+    pub fn cpu_reference(env: &'env EnvironmentMap) -> Self {
+        Renderer { env, gpu: None, cpu: CpuTracer::Reference }
+    }
+
+    /// The tracer frames are rendered with when not on a GPU.
+    pub fn cpu_tracer(&self) -> &CpuTracer {
+        &self.cpu
     }
 
     /// The GPU adapter, when rendering on one.
@@ -214,7 +242,12 @@ impl<'env> Renderer<'env> {
     pub fn device_name(&self) -> String {
         match self.gpu_info() {
             Some(info) => format!("gpu: {}", info.short()),
-            None => format!("cpu: {} threads", rayon::current_num_threads()),
+            None => match &self.cpu {
+                CpuTracer::Wide(_) => {
+                    format!("cpu: {} threads (wide tracer, {})", rayon::current_num_threads(), Isa::widest())
+                }
+                CpuTracer::Reference => format!("cpu-reference: {} threads (f64 tracer)", rayon::current_num_threads()),
+            },
         }
     }
 

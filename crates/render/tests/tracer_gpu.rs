@@ -8,40 +8,20 @@
 
 mod common;
 
-use common::{L, assert_coverage_matches, coverage_scene, flat, furnace_scene, scene, study_camera, uniform};
+use common::agreement::{H, W, assert_noise_apart, checker, design, hard_cases, study_scene};
+use common::{L, assert_coverage_matches, coverage_scene, furnace_scene, scene, study_camera, uniform};
 use glam::DVec3;
 use render::env::EnvironmentMap;
 use render::io::LinearImage;
 use render::methods::tracer::GpuTracer;
 use render::methods::tracer::trace_batch;
 use render::shading::gpu::params::{EnvTables, Specialisation, material_kind};
-use study::design::Design;
-use study::ids::{StimulusId, View};
-use study::scene::{FrameScene, Material, Shutter};
-
-const W: u32 = 64;
-const H: u32 = 36;
+use study::ids::View;
+use study::scene::{FrameScene, Shutter};
 
 fn tracer(test: &str) -> Option<GpuTracer> {
     let ctx = gpu::test_context(test)?;
     Some(GpuTracer::new(ctx).expect("the tracer kernel compiles"))
-}
-
-fn design() -> Design {
-    Design::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml")).unwrap()
-}
-
-/// Stimulus `M{m}-S3-T{t}` of the study at the benchmark frame (the sphere near the image
-/// centre), at `spp` samples per pixel, every eye shrunk to 64 x 36 pixels.
-fn study_scene(design: &Design, material: u8, shutter: u8, view: View, spp: u32) -> FrameScene {
-    let frame = render::measure::tracer::benchmark_frame(design, 1, false).unwrap().frame;
-    let id = StimulusId { material, speed: 3, shutter, samples: 1, method: None, view };
-    let mut s = design.frame_scene(&id, frame).unwrap();
-    s.samples_per_pixel = spp;
-    for v in &mut s.views {
-        (v.camera.width, v.camera.height) = (W, H);
-    }
-    s
 }
 
 fn max_abs_difference(a: &LinearImage, b: &LinearImage) -> (f32, usize) {
@@ -105,52 +85,12 @@ fn the_kernel_agrees_with_its_cpu_twin_per_pixel() {
     eprintln!("largest relative difference GPU - twin: {worst_all:e}");
 }
 
-/// Per 8 x 8 block and channel, the paired difference of two independent renders of the
-/// same scene: its mean over the block divided by its standard error (from the block's own
-/// differences). Both estimators unbiased, each z is about standard normal.
-fn block_z_scores(a: &LinearImage, b: &LinearImage) -> Vec<f64> {
-    let mut out = Vec::new();
-    for by in 0..a.height / 8 {
-        for bx in 0..a.width / 8 {
-            for c in 0..3 {
-                let d: Vec<f64> = (0..64)
-                    .map(|k| {
-                        let (x, y) = (bx * 8 + k % 8, by * 8 + k / 8);
-                        f64::from(a.get(x, y)[c]) - f64::from(b.get(x, y)[c])
-                    })
-                    .collect();
-                let s = study::stats::Summary::of(&d);
-                let se = s.standard_error();
-                out.push(if se > 0.0 {
-                    s.mean / se
-                } else if s.mean == 0.0 {
-                    0.0
-                } else {
-                    f64::INFINITY
-                });
-            }
-        }
-    }
-    out
-}
-
 fn assert_agrees_with_f64(gpu: &GpuTracer, s: &FrameScene, what: &str) {
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let genv = gpu.environment(&env).unwrap();
     let g = gpu.render_frame(s, &genv).unwrap();
-    let c = render::methods::tracer::render_frame(s, &env);
     assert_eq!(g.nonfinite_samples, 0, "{what}: NaN or infinite samples on the GPU");
-    for (ge, ce) in g.eyes.iter().zip(&c.eyes) {
-        assert!(ge.pixels.iter().flatten().all(|v| v.is_finite() && *v >= 0.0), "{what}");
-        let z = block_z_scores(ge, ce);
-        // 4.5 sd: over all blocks of all tests here (about 2,000 z-scores) a false alarm has
-        // probability about 1e-2; a bias of a few per cent fails many blocks at once.
-        let worst = z.iter().fold(0.0f64, |m, z| m.max(z.abs()));
-        let rms = (z.iter().map(|z| z * z).sum::<f64>() / z.len() as f64).sqrt();
-        eprintln!("{what}: {} blocks, largest |z| {worst:.2}, RMS z {rms:.2}", z.len());
-        assert!(worst < 4.5, "{what}: a block differs by {worst:.2} standard errors");
-        assert!(rms < 1.6, "{what}: RMS z {rms:.2}: the difference is not noise");
-    }
+    assert_noise_apart(&g.eyes, &render::methods::tracer::render_frame(s, &env).eyes, what);
 }
 
 #[test]
@@ -229,44 +169,12 @@ fn motion_coverage_on_the_gpu_matches_the_analytic_fraction() {
 #[test]
 fn f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer() {
     let Some(gpu) = tracer("f32_hard_cases_stay_finite_and_agree_with_the_f64_tracer") else { return };
-    let checker =
-        Material::Checker { albedo_a: [0.8; 3], albedo_b: [0.1; 3], squares_around: 16, squares_pole_to_pole: 8 };
-    let lit = common::default_env();
-
-    // The sphere far from the origin (the wrapped path puts it metres away; here 40 m),
-    // moving, with the camera following at the study's distance.
-    let far = DVec3::new(40.0, 0.0, -25.0);
-    let mut s = scene(study_camera(W, H), checker.clone(), lit.clone(), 32);
-    s.sphere.start += far;
-    s.sphere.velocity = DVec3::new(2.238, 0.0, 0.0);
-    s.shutter = Shutter { open: 0.0, close: 1.0 / 30.0 };
-    s.views[0].camera = study::scene::Camera::look_at(
-        DVec3::new(0.0, 0.5, 3.0) + far,
-        DVec3::new(0.0, 0.1, 0.0) + far,
-        0.05,
-        0.036,
-        W,
-        H,
-    );
-    assert_agrees_with_f64(&gpu, &s, "sphere 47 m from the origin");
-
-    // Grazing rays: the camera 1 mm above the floor, looking along it at the sphere's
-    // silhouette and contact point.
-    let mut s = scene(study_camera(W, H), checker.clone(), lit.clone(), 32);
-    s.views[0].camera =
-        study::scene::Camera::look_at(DVec3::new(0.0, 0.001, 1.0), DVec3::new(0.0, 0.001, 0.0), 0.05, 0.036, W, H);
-    assert_agrees_with_f64(&gpu, &s, "grazing the floor and the silhouette");
-
-    // Self-intersection: a close-up of the contact region, where every secondary ray starts
-    // on a surface and most shadow rays pass within a hair of the other one. Acne would
-    // darken it against the f64 tracer.
-    let mut s = scene(study_camera(W, H), flat(0.7), lit, 32);
-    s.views[0].camera =
-        study::scene::Camera::look_at(DVec3::new(0.0, 0.05, 0.4), DVec3::new(0.0, 0.01, 0.0), 0.05, 0.036, W, H);
-    assert_agrees_with_f64(&gpu, &s, "contact point close-up");
+    for (s, what) in hard_cases() {
+        assert_agrees_with_f64(&gpu, &s, what);
+    }
 
     // A zero-length shutter on a moving sphere with time sampling forced on.
-    let mut s = scene(study_camera(W, H), checker, uniform(0.8), 16);
+    let mut s = scene(study_camera(W, H), checker(), uniform(0.8), 16);
     s.sphere.velocity = DVec3::new(2.238, 0.0, 0.0);
     s.shutter = Shutter { open: 0.02, close: 0.02 };
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();

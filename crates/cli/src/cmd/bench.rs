@@ -27,7 +27,7 @@ pub struct FrameBench {
 pub fn bench_device(device: crate::cmd::stimuli::DeviceArg) -> anyhow::Result<Option<gpu::GpuContext>> {
     use crate::cmd::stimuli::DeviceArg;
     let adapters = match device {
-        DeviceArg::Cpu => return Ok(None),
+        DeviceArg::Cpu | DeviceArg::CpuReference => return Ok(None),
         DeviceArg::Auto => gpu::AdapterChoice::HardwareOnly,
         DeviceArg::Gpu => gpu::AdapterChoice::HardwareThenSoftware,
     };

@@ -66,8 +66,10 @@ pub enum DeviceArg {
     /// A hardware GPU adapter if there is one, else the CPU tracer (never a software
     /// adapter such as lavapipe, which is slower than the CPU tracer).
     Auto,
-    /// The CPU reference tracer.
+    /// The CPU: the wide tracer (SIMD lanes, the widest instruction set the CPU has).
     Cpu,
+    /// The CPU: the f64 reference tracer (slower; for checks).
+    CpuReference,
     /// The GPU tracer: a hardware adapter, else a software one; an error without either.
     Gpu,
 }
@@ -77,6 +79,7 @@ impl From<DeviceArg> for render::DeviceChoice {
         match d {
             DeviceArg::Auto => render::DeviceChoice::Auto,
             DeviceArg::Cpu => render::DeviceChoice::Cpu,
+            DeviceArg::CpuReference => render::DeviceChoice::CpuReference,
             DeviceArg::Gpu => render::DeviceChoice::Gpu,
         }
     }

@@ -11,6 +11,8 @@ use study::scene::{
 };
 use study::seed::Eye;
 
+pub mod agreement;
+
 /// Radiance of the uniform environments.
 pub const L: f64 = 0.8;
 

@@ -35,6 +35,11 @@ pub struct Args {
     /// Mitsuba sampler (`independent`, `stratified`, `multijitter`, `ldsampler`, ...).
     #[arg(long, default_value = "independent")]
     mitsuba_sampler: String,
+    /// Mitsuba variant: `scalar_rgb`, or `llvm_ad_rgb` (vectorised and JIT-compiled; it loads
+    /// the system's LLVM from `DRJIT_LIBLLVM_PATH`, which the driver sets to Debian's
+    /// `libLLVM-19.so` when unset).
+    #[arg(long, default_value = "scalar_rgb")]
+    mitsuba_variant: String,
     /// Folder for the peer's scene and images (default: a new temporary folder).
     #[arg(long)]
     work: Option<PathBuf>,
@@ -105,6 +110,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         python: args.python.clone(),
         peer_script: args.peer_script.clone(),
         mitsuba_sampler: args.mitsuba_sampler.clone(),
+        mitsuba_variant: args.mitsuba_variant.clone(),
         work: args.work.clone(),
         rounds: args.rounds,
     };
@@ -112,19 +118,40 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if args.frame.json {
         println!("{}", serde_json::to_string_pretty(&result)?);
     } else {
+        let m = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN) / 1e6;
         println!(
-            "blurlab: {:.2} M camera samples/s (moving M3-S3-T5), {:.2} M/s static, noise {:.4}",
+            "blurlab (wide, {}): {:.2} M camera samples/s (moving M3-S3-T5), {:.2} M/s static, noise {:.4}",
+            result["blurlab"]["isa"].as_str().unwrap_or("?"),
             result["blurlab"]["moving_frame"]["camera_samples_per_second"].as_f64().unwrap_or(f64::NAN) / 1e6,
             result["blurlab"]["static_frame"]["camera_samples_per_second"].as_f64().unwrap_or(f64::NAN) / 1e6,
             result["blurlab"]["static_frame"]["noise_rms"].as_f64().unwrap_or(f64::NAN)
         );
+        for path in result["dispatch_paths"].as_array().into_iter().flatten() {
+            println!(
+                "  {}: {:.2} M/s static",
+                path["isa"].as_str().unwrap_or("?"),
+                m(&path["camera_samples_per_second"])
+            );
+        }
+        let t = &result["thread_scaling"];
+        println!(
+            "  1 thread {:.2} M/s, {} threads {:.2} M/s; f64 reference {:.2} M/s static",
+            m(&t["threads_1"]),
+            t["threads_all_count"],
+            m(&t["threads_all"]),
+            m(&result["reference_f64"]["camera_samples_per_second"])
+        );
         if let Some(c) = result.get("comparison") {
             println!(
-                "mitsuba: {:.2} M/s, noise {:.4}; speed-up {:.1}x, noise ratio {:.2}",
-                result["mitsuba"]["camera_samples_per_second"].as_f64().unwrap_or(f64::NAN) / 1e6,
+                "mitsuba {}: {:.2} M/s, noise {:.4}; speed-up {:.2}x (mean {:.2}x), noise ratio {:.3}; at equal noise {:.2}x (mean {:.2}x)",
+                result["mitsuba"]["variant"].as_str().unwrap_or("?"),
+                m(&result["mitsuba"]["camera_samples_per_second"]),
                 result["mitsuba"]["noise_rms"].as_f64().unwrap_or(f64::NAN),
                 c["speedup_static"].as_f64().unwrap_or(f64::NAN),
-                c["noise_ratio_blurlab_over_mitsuba"].as_f64().unwrap_or(f64::NAN)
+                c["speedup_static_mean"].as_f64().unwrap_or(f64::NAN),
+                c["noise_ratio_blurlab_over_mitsuba"].as_f64().unwrap_or(f64::NAN),
+                c["speedup_at_equal_noise"].as_f64().unwrap_or(f64::NAN),
+                c["speedup_at_equal_noise_mean"].as_f64().unwrap_or(f64::NAN)
             );
         }
         println!("full set projected: {:.1} h", result["full_set_projection"]["hours"].as_f64().unwrap_or(f64::NAN));

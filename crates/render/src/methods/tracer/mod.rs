@@ -1,5 +1,5 @@
-//! The distribution ray tracer as a method: the f64 reference ([`reference`]) on the CPU,
-//! its WGSL kernel (`trace_batch.wgsl`, with its f32 CPU twin [`trace_batch`]) on a GPU
+//! The distribution ray tracer as a method: on the CPU the wide tracer ([`wide`], the
+//! kernel's f32 algorithm in SIMD lanes) or the f64 reference ([`reference`]), its WGSL kernel (`trace_batch.wgsl`, with its f32 CPU twin [`trace_batch`]) on a GPU
 //! through its host ([`host`]: [`GpuTracer`]). Both shade with the shading layer
 //! (`crate::shading`). The tracer's host, [`TracerHost`], is also the shared shading device
 //! of the methods built on traced images (the accumulation buffer, the post-process
@@ -8,6 +8,7 @@
 pub mod host;
 pub mod reference;
 pub mod trace_batch;
+pub mod wide;
 
 pub use host::{GpuEnvironment, GpuFrame, GpuPrefix, GpuTracer, GpuTracerError, PendingFrame};
 pub use reference::{FrameOutput, FrameSetup, render_frame, render_frame_nested};
@@ -17,7 +18,7 @@ use study::scene::FrameScene;
 use super::{GpuHosts, RenderMethod};
 use crate::io::LinearImage;
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
-use crate::renderer::{DeviceError, Renderer, Submitted};
+use crate::renderer::{CpuTracer, DeviceError, Renderer, Submitted};
 
 /// The GPU tracer with the renderer's environment map uploaded.
 pub struct TracerHost {
@@ -66,7 +67,12 @@ pub(crate) fn trace(renderer: &Renderer<'_>, scene: &FrameScene) -> Result<Trace
             }
         }
         None => {
-            let f = crate::methods::tracer::render_frame(scene, renderer.env());
+            let f = match renderer.cpu_tracer() {
+                CpuTracer::Wide(tables) => {
+                    wide::render_frame(scene, tables).map_err(|e| RenderError::Scene(e.to_string()))?
+                }
+                CpuTracer::Reference => crate::methods::tracer::render_frame(scene, renderer.env()),
+            };
             Traced {
                 eyes: f.eyes,
                 nonfinite_samples: f.nonfinite_samples,
@@ -105,15 +111,23 @@ impl RenderMethod for Tracer {
         match renderer.gpu_host::<TracerHost>() {
             Some(g) => g.tracer.submit_nested(scene, &g.env, checkpoints).map(Submitted::Gpu).map_err(tracer_error),
             None => Ok(Submitted::Ready(
-                crate::methods::tracer::render_frame_nested(scene, renderer.env(), checkpoints)
-                    .into_iter()
-                    .map(|o| RenderedFrame {
-                        image: compose_eyes(o.eyes),
-                        nonfinite_samples: o.nonfinite_samples,
-                        camera_samples: o.camera_samples,
-                        gpu_seconds: None,
-                    })
-                    .collect(),
+                match renderer.cpu_tracer() {
+                    CpuTracer::Wide(tables) => {
+                        wide::render_frame_nested(scene, tables, checkpoints, wide::Isa::widest())
+                            .map_err(|e| RenderError::Scene(e.to_string()))?
+                    }
+                    CpuTracer::Reference => {
+                        crate::methods::tracer::render_frame_nested(scene, renderer.env(), checkpoints)
+                    }
+                }
+                .into_iter()
+                .map(|o| RenderedFrame {
+                    image: compose_eyes(o.eyes),
+                    nonfinite_samples: o.nonfinite_samples,
+                    camera_samples: o.camera_samples,
+                    gpu_seconds: None,
+                })
+                .collect(),
             )),
         }
     }

@@ -34,13 +34,13 @@ use crate::shading::intersect::{floor_root_f32, sphere_ahead_f32, sphere_root_f3
 use crate::shading::material::{NOISE_GAIN, filtered_noise_f32};
 use crate::shading::sampler::dim;
 
-const PI: f32 = std::f32::consts::PI;
+pub(crate) const PI: f32 = std::f32::consts::PI;
 pub(crate) const TAU: f32 = std::f32::consts::TAU;
-const FRAC_1_PI: f32 = std::f32::consts::FRAC_1_PI;
+pub(crate) const FRAC_1_PI: f32 = std::f32::consts::FRAC_1_PI;
 /// Spread of the cone a sample stands for after a diffuse bounce (the CPU tracer's).
-const DIFFUSE_SPREAD: f32 = 0.25;
+pub(crate) const DIFFUSE_SPREAD: f32 = 0.25;
 /// Relative error bound of a hit point: 16 f32 unit round-offs.
-const HIT_POINT_ERROR: f32 = 16.0 * f32::EPSILON;
+pub(crate) const HIT_POINT_ERROR: f32 = 16.0 * f32::EPSILON;
 /// 1 / 65535, the weight of one step of a 16-bit cumulative table.
 const CDF_STEP: f32 = 1.0 / 65535.0;
 
@@ -240,7 +240,7 @@ pub(crate) fn texel_of(p: &FrameParams, env: &[u32], d: Vec3) -> (u32, u32, u32,
     (y * w + x, x >> shift, y >> shift, sin_theta)
 }
 
-fn cell_density(p: &FrameParams, env: &[u32], x: u32, y: u32) -> f32 {
+pub(crate) fn cell_density(p: &FrameParams, env: &[u32], x: u32, y: u32) -> f32 {
     if p.env_samplable == 0 {
         return 0.0;
     }
@@ -280,7 +280,7 @@ fn cdf_sample(
 
 /// A light sample: (world direction, density over map coordinates, jacobian, texel), or
 /// density 0 for none.
-fn env_sample(p: &FrameParams, env: &[u32], u: [f32; 2]) -> (Vec3, f32, f32, u32) {
+pub(crate) fn env_sample(p: &FrameParams, env: &[u32], u: [f32; 2]) -> (Vec3, f32, f32, u32) {
     let none = (Vec3::ZERO, 0.0, 0.0, 0);
     if p.env_samplable == 0 {
         return none;
@@ -344,7 +344,14 @@ fn to_object(p: &FrameParams, spec: &Specialisation, s: &SphereAt, v: Vec3) -> V
     Vec3::new(dot3(xyz(p.w2o_row0), r), dot3(xyz(p.w2o_row1), r), dot3(xyz(p.w2o_row2), r))
 }
 
-fn surface_albedo(p: &FrameParams, spec: &Specialisation, s: &SphereAt, hit: &Hit, footprint: f32, dir: Vec3) -> Vec3 {
+pub(crate) fn surface_albedo(
+    p: &FrameParams,
+    spec: &Specialisation,
+    s: &SphereAt,
+    hit: &Hit,
+    footprint: f32,
+    dir: Vec3,
+) -> Vec3 {
     if hit.surface == FLOOR {
         return xyz(p.floor_albedo);
     }
