@@ -105,6 +105,8 @@ pub(crate) fn add_seconds(a: Option<f64>, b: Option<f64>) -> Option<f64> {
 pub struct Renderer<'env> {
     env: &'env EnvironmentMap,
     gpu: Option<GpuHosts>,
+    /// The tracer frames go to when `gpu` is `None`. A GPU renderer never uses it and holds
+    /// [`CpuTracer::Reference`], which builds no tables.
     cpu: CpuTracer,
 }
 

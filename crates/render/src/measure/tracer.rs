@@ -233,21 +233,21 @@ struct Timed {
 
 /// Which CPU tracer a timed render uses.
 #[derive(Clone, Copy)]
-enum CpuTracer<'a> {
+enum TimedTracer<'a> {
     /// The wide tracer on an instruction set.
     Wide(&'a EnvTables, Isa),
     /// The f64 reference.
     Reference,
 }
 
-fn timed_render(scene: &FrameScene, env: &EnvironmentMap, tracer: CpuTracer<'_>) -> Result<Timed, BenchError> {
+fn timed_render(scene: &FrameScene, env: &EnvironmentMap, tracer: TimedTracer<'_>) -> Result<Timed, BenchError> {
     let start = Instant::now();
     let mut out = match tracer {
-        CpuTracer::Wide(tables, isa) => wide::render_frame_nested(scene, tables, &[], isa)
+        TimedTracer::Wide(tables, isa) => wide::render_frame_nested(scene, tables, &[], isa)
             .map_err(|e| BenchError::Frame(e.to_string()))?
             .pop()
             .ok_or_else(|| BenchError::Frame("no image".into()))?,
-        CpuTracer::Reference => render_frame(scene, env),
+        TimedTracer::Reference => render_frame(scene, env),
     };
     let seconds = start.elapsed().as_secs_f64();
     Ok(Timed { image: out.eyes.remove(0), seconds, samples: out.camera_samples, nonfinite: out.nonfinite_samples })
@@ -280,7 +280,7 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
     let env = EnvironmentMap::from_lighting(&moving.lighting)?;
     let tables = EnvTables::new(&env);
     let widest = Isa::widest();
-    let ours = CpuTracer::Wide(&tables, widest);
+    let ours = TimedTracer::Wide(&tables, widest);
     let peer = match opts.peer.as_str() {
         "mitsuba" => {
             let work = match &opts.work {
@@ -299,7 +299,7 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
     let mut warm = frozen.clone();
     warm.samples_per_pixel = 1;
     timed_render(&warm, &env, ours)?;
-    timed_render(&warm, &env, CpuTracer::Reference)?;
+    timed_render(&warm, &env, TimedTracer::Reference)?;
 
     let mut frozen_b = frozen.clone();
     frozen_b.views[0].seed ^= 0x9e37_79b9_7f4a_7c15;
@@ -323,17 +323,17 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
         moving_seconds.push(moving_run.seconds);
         static_seconds.extend([static_a.seconds, static_b.seconds]);
         for (isa, seconds) in isas.iter().zip(&mut isa_seconds) {
-            let run = timed_render(&frozen, &env, CpuTracer::Wide(&tables, *isa))?;
+            let run = timed_render(&frozen, &env, TimedTracer::Wide(&tables, *isa))?;
             if run.image != static_a.image {
                 return Err(BenchError::Frame(format!("the {isa} path rendered other bytes than the {widest} path")));
             }
             seconds.push(run.seconds);
         }
         one_thread_seconds.push(one_thread.install(|| timed_render(&frozen, &env, ours))?.seconds);
-        let reference_a = timed_render(&frozen, &env, CpuTracer::Reference)?;
+        let reference_a = timed_render(&frozen, &env, TimedTracer::Reference)?;
         reference_seconds.push(reference_a.seconds);
         if reference_images.is_none() {
-            let reference_b = timed_render(&frozen_b, &env, CpuTracer::Reference)?;
+            let reference_b = timed_render(&frozen_b, &env, TimedTracer::Reference)?;
             reference_images = Some((reference_a.image, reference_b.image));
         }
         if let Some(work) = &peer {

@@ -48,13 +48,6 @@ impl Isa {
         }
     }
 
-    /// Parses a [`Isa::name`] (or `baseline`).
-    pub fn from_name(name: &str) -> Option<Isa> {
-        [Isa::Avx512, Isa::Avx2, Isa::Baseline]
-            .into_iter()
-            .find(|i| i.name() == name || name == "baseline" && *i == Isa::Baseline)
-    }
-
     /// Runs `job` compiled for this set (`job.call` and what it calls must be
     /// `#[inline(always)]` to be compiled for it); on a CPU without the set, compiled for
     /// the baseline.
