@@ -133,12 +133,20 @@ fn cdf_sample(
     let k = ti.shr(guide_shift);
     let mut x = env_u16(env, offset, base.wrapping_add(k));
     let k1 = k.wrapping_add(one);
-    let hi = k1.lt(U::splat(guide_len)).select_u(env_u16(env, offset, base.wrapping_add(k1)), U::splat(width - 1));
+    let mut hi = k1.lt(U::splat(guide_len)).select_u(env_u16(env, offset, base.wrapping_add(k1)), U::splat(width - 1));
     let cdf = base.wrapping_add(U::splat(guide_len));
-    let mut moving = lanes;
+    // The twin walks forward from the guide's cell to the first `x < hi` whose cell ends
+    // past `ti` (or to `hi`). The cumulative table never decreases, so "ends past `ti`" is
+    // false then true along the walk, and bisecting `[x, hi]` finds the same cell. A walk
+    // costs the longest of the lanes' spans, a bisection its logarithm: in a dark part of
+    // the map one guide entry spans dozens of cells.
+    let mut moving = lanes & x.lt(hi);
     while moving.any() {
-        moving = moving & x.lt(hi) & env_u16(env, offset, cdf.wrapping_add(x).wrapping_add(one)).le(ti);
-        x = moving.select_u(x.wrapping_add(one), x);
+        let mid = x.wrapping_add(hi).shr(1);
+        let before = env_u16(env, offset, cdf.wrapping_add(mid).wrapping_add(one)).le(ti);
+        x = (moving & before).select_u(mid.wrapping_add(one), x);
+        hi = (moving & !before).select_u(mid, hi);
+        moving = moving & x.lt(hi);
     }
     let lo = env_u16(env, offset, cdf.wrapping_add(x));
     let start = lo.to_f32();
@@ -181,4 +189,85 @@ fn cell_texel(c: U, fc: F, f: u32) -> U {
     let v = ((c.to_f32() + fc) * F::splat(f as f32)).to_u32_below_2_31();
     let v = lo.gt(v).select_u(lo, v);
     v.min(lo.wrapping_add(U::splat(f - 1)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::env::EnvironmentMap;
+    use crate::io::LinearImage;
+    use crate::shading::gpu::params::EnvTables;
+    use crate::shading::gpu::radiance;
+
+    /// A map whose light distribution has every shape the inversion meets: a sun of a few
+    /// texels holding nearly all the weight (so one guide entry spans dozens of dim cells),
+    /// a black band (runs of equal cumulative entries), a dim gradient and a bright row.
+    fn hard_map() -> EnvironmentMap {
+        let (w, h) = (512u32, 256u32);
+        let mut pixels = vec![[0.0f32; 3]; (w * h) as usize];
+        for y in 0..h {
+            for x in 0..w {
+                let v = if (40..44).contains(&y) && (300..303).contains(&x) {
+                    5.0e4
+                } else if (100..160).contains(&y) || (200..260).contains(&x) {
+                    0.0
+                } else if y == 20 {
+                    30.0
+                } else {
+                    0.01 + 0.002 * (x % 37) as f32
+                };
+                pixels[(y * w + x) as usize] = [v, v * 0.8, v * 0.6];
+            }
+        }
+        EnvironmentMap::from_image(&LinearImage { width: w, height: h, pixels }, 1.0, 0.3, "hard map").unwrap()
+    }
+
+    #[test]
+    fn bisected_light_samples_are_the_twins_walked_ones() {
+        let design = study::design::Design::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml"),
+        )
+        .unwrap();
+        let scene = design.frame_scene(&"M3-S3-T5-A1".parse().unwrap(), 10).unwrap();
+        let tables = EnvTables::new(&hard_map());
+        let p = FrameParams::new(&scene, &scene.views[0], &tables).unwrap();
+        let words = &tables.words;
+        // Edges of the unit square, then a low-discrepancy sweep of it.
+        let mut us: Vec<[f32; 2]> = vec![[0.0, 0.0], [1.0 - f32::EPSILON, 1.0 - f32::EPSILON], [0.5, 0.0]];
+        for i in 0..20_000u32 {
+            us.push([(i as f32 + 0.5) / 20_000.0, (i.wrapping_mul(2_654_435_769) >> 8) as f32 / 16_777_216.0]);
+        }
+        let mut longest_walk = 0;
+        for chunk in us.chunks(16) {
+            let mut u = [F::splat(0.0), F::splat(0.0)];
+            for (i, v) in chunk.iter().enumerate() {
+                u[0].0[i] = v[0];
+                u[1].0[i] = v[1];
+            }
+            let (dir, density, jacobian, texel) = env_sample(&p, words, u, M::first(chunk.len() as u32));
+            for (i, v) in chunk.iter().enumerate() {
+                let (d, dens, jac, tex) = radiance::env_sample(&p, words, *v);
+                assert_eq!(
+                    (
+                        dir.lane(i).to_array().map(f32::to_bits),
+                        density.0[i].to_bits(),
+                        jacobian.0[i].to_bits(),
+                        texel.0[i]
+                    ),
+                    (d.to_array().map(f32::to_bits), dens.to_bits(), jac.to_bits(), tex),
+                    "u = {v:?}"
+                );
+            }
+        }
+        // The map must give the walk long spans, or the test would not test the bisection.
+        let rows = (p.rows_guide_len, p.rows_guide_shift, p.rows_stride);
+        for y in 0..p.env_dist_height {
+            for k in 0..rows.0.saturating_sub(1) {
+                let base = y * rows.2;
+                let g = |i: u32| (words[(p.off_rows + (base + i) / 2) as usize] >> (16 * ((base + i) & 1))) & 0xffff;
+                longest_walk = longest_walk.max(g(k + 1) - g(k));
+            }
+        }
+        assert!(longest_walk >= 32, "the longest guide span is only {longest_walk} cells");
+    }
 }
