@@ -25,7 +25,9 @@ fn wide_on(isa: Isa, s: &FrameScene, tables: &EnvTables) -> render::methods::tra
 #[test]
 fn every_instruction_set_renders_the_twins_bytes() {
     // The same operations in the same order on every path, no fused multiply-add anywhere:
-    // the f32 twin's frame exactly. 20 samples: a full packet of 16 and a partial one.
+    // the f32 twin's frame exactly. 20 samples: a full packet of 16 and a partial one; 1, 3
+    // and 5: packets of 16, 5 and 3 pixels, the row's last one partial for 3 and 5 (64
+    // pixels across).
     let design = design();
     let env = EnvironmentMap::from_lighting(&design.lighting).unwrap();
     let tables = EnvTables::new(&env);
@@ -35,14 +37,17 @@ fn every_instruction_set_renders_the_twins_bytes() {
     for material in 1..=3 {
         for shutter in [1, 5] {
             for view in [View::Mono, View::Stereo] {
-                let mut s = study_scene(&design, material, shutter, view, 20);
-                s.pixel_jitter = !(material == 2 && view == View::Mono);
-                let (twin, twin_bad) = trace_batch::render_frame(&s, &tables, &Specialisation::of(&s)).unwrap();
-                for &isa in &isas {
-                    let out = wide_on(isa, &s, &tables);
-                    assert_eq!(out.nonfinite_samples, twin_bad, "M{material} T{shutter} {view:?} {isa}");
-                    assert_eq!(out.camera_samples, u64::from(W * H * 20) * twin.len() as u64);
-                    assert!(out.eyes == twin, "M{material} T{shutter} {view:?} on {isa}: not the twin's bytes");
+                for spp in [20, 1, 3, 5] {
+                    let mut s = study_scene(&design, material, shutter, view, spp);
+                    s.pixel_jitter = !(material == 2 && view == View::Mono);
+                    let (twin, twin_bad) = trace_batch::render_frame(&s, &tables, &Specialisation::of(&s)).unwrap();
+                    let what = format!("M{material} T{shutter} {view:?} {spp} spp");
+                    for &isa in &isas {
+                        let out = wide_on(isa, &s, &tables);
+                        assert_eq!(out.nonfinite_samples, twin_bad, "{what} on {isa}");
+                        assert_eq!(out.camera_samples, u64::from(W * H * spp) * twin.len() as u64);
+                        assert!(out.eyes == twin, "{what} on {isa}: not the twin's bytes");
+                    }
                 }
             }
         }
@@ -71,15 +76,24 @@ fn nested_prefixes_are_the_gpu_tracers_read_outs() {
     let design = design();
     let env = EnvironmentMap::from_lighting(&design.lighting).unwrap();
     let tables = EnvTables::new(&env);
-    let top = study_scene(&design, 3, 5, View::Stereo, 40);
-    let levels = wide::render_frame_nested(&top, &tables, &[12, 4, 4, 0, 99, 33], Isa::widest()).unwrap();
-    let counts: Vec<u64> = levels.iter().map(|l| l.camera_samples / u64::from(2 * W * H)).collect();
-    assert_eq!(counts, [4, 12, 33, 40], "duplicates, zero and counts above the stream's are dropped");
-    assert!(levels[3].eyes == wide::render_frame(&top, &tables).unwrap().eyes);
-    for level in &levels[..3] {
+    // 40 samples: packets of one pixel; 6: packets of two pixels.
+    for (spp, checkpoints, expected) in
+        [(40, &[12, 4, 4, 0, 99, 33][..], &[4, 12, 33, 40][..]), (6, &[2, 5, 6, 7][..], &[2, 5, 6][..])]
+    {
+        let top = study_scene(&design, 3, 5, View::Stereo, spp);
+        let levels = wide::render_frame_nested(&top, &tables, checkpoints, Isa::widest()).unwrap();
+        let counts: Vec<u64> = levels.iter().map(|l| l.camera_samples / u64::from(2 * W * H)).collect();
+        assert_eq!(counts, expected, "duplicates, zero and counts above the stream's are dropped");
+        assert!(levels.last().unwrap().eyes == wide::render_frame(&top, &tables).unwrap().eyes);
+        assert_prefixes_render_alone(&top, &tables, &levels[..levels.len() - 1]);
+    }
+}
+
+fn assert_prefixes_render_alone(top: &FrameScene, tables: &EnvTables, levels: &[render::methods::tracer::FrameOutput]) {
+    for level in levels {
         let mut alone = top.clone();
         alone.samples_per_pixel = (level.camera_samples / u64::from(2 * W * H)) as u32;
-        let frame = wide::render_frame(&alone, &tables).unwrap();
+        let frame = wide::render_frame(&alone, tables).unwrap();
         assert_eq!(level.nonfinite_samples, frame.nonfinite_samples);
         for (a, b) in level.eyes.iter().zip(&frame.eyes) {
             for (p, q) in a.pixels.iter().zip(&b.pixels) {

@@ -10,10 +10,13 @@
 //! Carlo error and to the GPU per pixel.
 //!
 //! Why it is faster than the twin: sixteen samples share one pass through the bounce loop
-//! (the study's pixels take 16 to 512 samples, so the lanes are the samples of one pixel
-//! and their primary rays are coherent); the scrambling seeds of a pixel's dimensions are
-//! hashed once per pixel, not once per value; and each row is compiled for the widest
-//! instruction set the CPU has ([`Isa`], chosen at run time).
+//! (at 16 samples per pixel or more the lanes are the samples of one pixel, whose primary
+//! rays are coherent; below that, every sample of several neighbouring pixels, so the lanes
+//! stay full at the quick preset's and the accumulation buffer's few samples); the
+//! scrambling seeds of a pixel's dimensions are hashed once per pixel, not once per value;
+//! the light sample's CDF inversion bisects where the twin walks (the same cell); and each
+//! row is compiled for the widest instruction set the CPU has ([`Isa`], chosen at run
+//! time).
 //!
 //! [`Isa`] and run-time dispatch: `pulp` (a maintained crate of safe SIMD with run-time
 //! detection, used by `faer`) compiles a closure with a target's features enabled and calls
@@ -33,8 +36,8 @@ use dispatch::Job;
 use rayon::prelude::*;
 use study::scene::FrameScene;
 
-use self::lanes::LANES;
-use self::packet::{PixelSeeds, trace_packet};
+use self::lanes::{F, LANES, M, U};
+use self::packet::{LaneSeeds, PixelSeeds, trace_packet};
 use super::reference::FrameOutput;
 use crate::io::LinearImage;
 use crate::shading::gpu::params::{EnvTables, FrameParams, ParamsError, Specialisation};
@@ -92,13 +95,14 @@ pub fn render_frame_nested(
 }
 
 /// The heap one rendering thread holds: a row of pixels per sample-count level and the
-/// scrambling seeds of a pixel's dimensions (the environment's tables and the images are
-/// shared by all threads).
+/// scrambling seeds of a pixel's dimensions, once per pixel and once per lane (the
+/// environment's tables and the images are shared by all threads).
 pub fn per_thread_heap_bytes(width: u32, levels: usize, max_bounces: u32) -> usize {
     let dims =
         (crate::shading::sampler::dim::BOUNCE_BASE + crate::shading::sampler::dim::PER_BOUNCE * max_bounces) as usize;
     levels * width as usize * std::mem::size_of::<[f32; 3]>()
         + dims * std::mem::size_of::<crate::shading::gpu::sampler32::DimSeeds>()
+        + dims * 3 * std::mem::size_of::<U>()
 }
 
 /// The state one packet carries through the bounce loop (ray, hit, sphere, throughput,
@@ -132,6 +136,46 @@ impl Job for Row<'_> {
     }
 }
 
+/// A pixel's running sum: its samples added in index order, read out at each level.
+struct PixelSum {
+    sum: glam::Vec3,
+    bad: u64,
+    next: usize,
+}
+
+impl PixelSum {
+    const NEW: PixelSum = PixelSum { sum: glam::Vec3::ZERO, bad: 0, next: 0 };
+
+    /// Adds sample `index` (radiance `l`); pushes a level's pixel when it is complete.
+    #[inline(always)]
+    fn add(&mut self, l: glam::Vec3, index: u32, inv_spp: f32, spp: u32, levels: &[u32], out: &mut [RowLevel]) {
+        if is_finite3(l) {
+            self.sum += l * inv_spp;
+        } else {
+            self.bad += 1;
+        }
+        let done = index + 1;
+        if self.next + 1 < levels.len() && done == levels[self.next] {
+            let scale = spp as f32 / done as f32;
+            out[self.next].pixels.push((self.sum * scale).to_array());
+            out[self.next].nonfinite += self.bad;
+            self.next += 1;
+        }
+    }
+
+    /// Pushes the pixel at the full count.
+    #[inline(always)]
+    fn finish(self, out: &mut [RowLevel]) {
+        let last = out.len() - 1;
+        out[last].pixels.push(self.sum.to_array());
+        out[last].nonfinite += self.bad;
+    }
+}
+
+/// Row `y`: with at least [`LANES`] samples per pixel, each pixel's samples in packets of
+/// [`LANES`] consecutive ones; with fewer, every sample of `LANES / spp` neighbouring pixels
+/// in one packet, so that the lanes stay full at the study's 1 to 12 samples per pixel.
+/// Either way each pixel's samples are added in index order, so the bytes are the same.
 #[inline(always)]
 fn trace_row(p: &FrameParams, spec: &Specialisation, env: &[u32], y: u32, levels: &[u32]) -> Vec<RowLevel> {
     let spp = levels.last().copied().unwrap_or(0);
@@ -139,35 +183,49 @@ fn trace_row(p: &FrameParams, spec: &Specialisation, env: &[u32], y: u32, levels
     let mut out: Vec<RowLevel> =
         levels.iter().map(|_| RowLevel { pixels: Vec::with_capacity(p.width as usize), nonfinite: 0 }).collect();
     let mut seeds = PixelSeeds::new(p.max_bounces);
-    for x in 0..p.width {
-        seeds.set_pixel(pixel_seed(p.eye_seed, y * p.width + x));
-        let mut sum = glam::Vec3::ZERO;
-        let mut bad = 0u64;
-        let mut next = 0;
-        let mut first = 0u32;
-        while first < spp {
-            let count = (spp - first).min(LANES as u32);
-            let l = trace_packet(p, spec, env, &seeds, x, y, first, count);
-            for i in 0..count as usize {
-                let li = l.lane(i);
-                if is_finite3(li) {
-                    sum += li * inv_spp;
-                } else {
-                    bad += 1;
+    let mut lane_seeds = LaneSeeds::new(p.max_bounces);
+    let lanes = LANES as u32;
+    if spp >= lanes || spp == 0 {
+        for x in 0..p.width {
+            seeds.set_pixel(pixel_seed(p.eye_seed, y * p.width + x));
+            lane_seeds.set_all(&seeds);
+            let mut pixel = PixelSum::NEW;
+            let mut first = 0u32;
+            while first < spp {
+                let count = (spp - first).min(lanes);
+                let l = trace_packet(p, spec, env, &lane_seeds, F::splat(x as f32), y, U::ramp(first), M::first(count));
+                for i in 0..count {
+                    pixel.add(l.lane(i as usize), first + i, inv_spp, spp, levels, &mut out);
                 }
-                let done = first + i as u32 + 1;
-                if next + 1 < levels.len() && done == levels[next] {
-                    let scale = spp as f32 / done as f32;
-                    out[next].pixels.push((sum * scale).to_array());
-                    out[next].nonfinite += bad;
-                    next += 1;
-                }
+                first += count;
             }
-            first += count;
+            pixel.finish(&mut out);
         }
-        let last = out.len() - 1;
-        out[last].pixels.push(sum.to_array());
-        out[last].nonfinite += bad;
+        return out;
+    }
+    let per_packet = lanes / spp;
+    let mut x0 = 0;
+    while x0 < p.width {
+        let pixels = per_packet.min(p.width - x0);
+        let (mut xs, mut index) = (F::splat(0.0), U::splat(0));
+        for k in 0..pixels {
+            let x = x0 + k;
+            seeds.set_pixel(pixel_seed(p.eye_seed, y * p.width + x));
+            let lanes = (k * spp) as usize..((k + 1) * spp) as usize;
+            lane_seeds.set_lanes(lanes.clone(), &seeds);
+            for (i, lane) in lanes.enumerate() {
+                (xs.0[lane], index.0[lane]) = (x as f32, i as u32);
+            }
+        }
+        let l = trace_packet(p, spec, env, &lane_seeds, xs, y, index, M::first(pixels * spp));
+        for k in 0..pixels {
+            let mut pixel = PixelSum::NEW;
+            for i in 0..spp {
+                pixel.add(l.lane((k * spp + i) as usize), i, inv_spp, spp, levels, &mut out);
+            }
+            pixel.finish(&mut out);
+        }
+        x0 += pixels;
     }
     out
 }

@@ -1,4 +1,6 @@
-//! One packet: up to [`LANES`] consecutive camera samples of one pixel, traced together.
+//! One packet: up to [`LANES`] camera samples traced together, each lane a (pixel, sample
+//! index) pair of one row: the consecutive samples of one pixel, or, below [`LANES`]
+//! samples per pixel, every sample of several neighbouring pixels.
 //!
 //! The algorithm is the f32 twin's ([`crate::shading::gpu::radiance`]), the same operations
 //! in the same order per lane, so a lane's radiance is bit for bit the twin's radiance of
@@ -9,7 +11,8 @@
 //! the textures) calls the twin's own function lane by lane for the lanes that need it.
 //!
 //! The samples of one pixel share their seeds: the three hashes that seed each dimension
-//! are computed once per pixel ([`PixelSeeds`]) instead of once per value.
+//! are computed once per pixel ([`PixelSeeds`]) instead of once per value, and each lane
+//! reads its pixel's ([`LaneSeeds`]).
 
 use glam::Vec3;
 
@@ -49,18 +52,49 @@ impl PixelSeeds {
             *s = dim_seeds(pixel_seed, d as u32);
         }
     }
+}
+
+/// Each lane's seeds of every dimension: (shuffle, first, second) per dimension.
+pub(crate) struct LaneSeeds {
+    dims: Vec<[U; 3]>,
+}
+
+impl LaneSeeds {
+    /// Room for the dimensions of paths of `max_bounces` scattering events.
+    pub(crate) fn new(max_bounces: u32) -> Self {
+        let n = dim::BOUNCE_BASE + dim::PER_BOUNCE * max_bounces;
+        LaneSeeds { dims: vec![[U::splat(0); 3]; n as usize] }
+    }
+
+    /// Every lane a sample of the pixel of `seeds`.
+    #[inline(always)]
+    pub(crate) fn set_all(&mut self, seeds: &PixelSeeds) {
+        for (o, s) in self.dims.iter_mut().zip(&seeds.dims) {
+            *o = [U::splat(s.shuffle), U::splat(s.first), U::splat(s.second)];
+        }
+    }
+
+    /// Lanes `lanes` samples of the pixel of `seeds`.
+    #[inline(always)]
+    pub(crate) fn set_lanes(&mut self, lanes: std::ops::Range<usize>, seeds: &PixelSeeds) {
+        for (o, s) in self.dims.iter_mut().zip(&seeds.dims) {
+            for i in lanes.clone() {
+                (o[0].0[i], o[1].0[i], o[2].0[i]) = (s.shuffle, s.first, s.second);
+            }
+        }
+    }
 
     /// The seeds of dimension `d` (every dimension a path of at most `max_bounces` draws).
     #[inline(always)]
-    fn get(&self, d: u32) -> DimSeeds {
-        self.dims[d as usize]
+    fn get(&self, d: u32) -> &[U; 3] {
+        &self.dims[d as usize]
     }
 }
 
 /// `laine_karras` per lane (`crate::shading::sampler`).
 #[inline(always)]
-fn laine_karras(x: U, seed: u32) -> U {
-    let mut x = x.wrapping_add(U::splat(seed));
+fn laine_karras(x: U, seed: U) -> U {
+    let mut x = x.wrapping_add(seed);
     x = x.xor(x.wrapping_mul(U::splat(0x6c50_b47c)));
     x = x.xor(x.wrapping_mul(U::splat(0xb82f_1e52)));
     x = x.xor(x.wrapping_mul(U::splat(0xc7af_e638)));
@@ -79,8 +113,8 @@ fn sobol1_reversed(i: U) -> U {
 }
 
 #[inline(always)]
-fn shuffled_index(index: U, d: u32, s: &DimSeeds) -> U {
-    if d == dim::PIXEL { index } else { laine_karras(index.reverse_bits(), s.shuffle).reverse_bits() }
+fn shuffled_index(index: U, d: u32, s: &[U; 3]) -> U {
+    if d == dim::PIXEL { index } else { laine_karras(index.reverse_bits(), s[0]).reverse_bits() }
 }
 
 /// `to_unit` per lane: the top 24 bits as an exact f32 in [0, 1).
@@ -90,19 +124,16 @@ fn to_unit(v: U) -> F {
 }
 
 #[inline(always)]
-fn sample_1d(seeds: &PixelSeeds, index: U, d: u32) -> F {
+fn sample_1d(seeds: &LaneSeeds, index: U, d: u32) -> F {
     let s = seeds.get(d);
-    to_unit(laine_karras(shuffled_index(index, d, &s), s.first).reverse_bits())
+    to_unit(laine_karras(shuffled_index(index, d, s), s[1]).reverse_bits())
 }
 
 #[inline(always)]
-fn sample_2d(seeds: &PixelSeeds, index: U, d: u32) -> [F; 2] {
+fn sample_2d(seeds: &LaneSeeds, index: U, d: u32) -> [F; 2] {
     let s = seeds.get(d);
-    let i = shuffled_index(index, d, &s);
-    [
-        to_unit(laine_karras(i, s.first).reverse_bits()),
-        to_unit(laine_karras(sobol1_reversed(i), s.second).reverse_bits()),
-    ]
+    let i = shuffled_index(index, d, s);
+    [to_unit(laine_karras(i, s[1]).reverse_bits()), to_unit(laine_karras(sobol1_reversed(i), s[2]).reverse_bits())]
 }
 
 /// `sin_cos_turns` per lane.
@@ -267,29 +298,28 @@ fn cosine_sample(n: V3, u: [F; 2]) -> (V3, F) {
     (t.scale(r * cs) + bt.scale(r * sn) + n.scale(z), z * F::splat(FRAC_1_PI))
 }
 
-/// The radiance of samples `first .. first + count` (`count <= LANES`) of pixel `(x, y)`,
-/// one lane each (lanes from `count` on are not traced and hold zero).
+/// The radiance of each lane's sample: sample `index` of pixel `(x, y)` (the lane's `x`,
+/// the row's `y`), seeded by `seeds`; lanes outside `lanes` are not traced and hold zero.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn trace_packet(
     p: &FrameParams,
     spec: &Specialisation,
     env: &[u32],
-    seeds: &PixelSeeds,
-    x: u32,
+    seeds: &LaneSeeds,
+    x: F,
     y: u32,
-    first: u32,
-    count: u32,
+    index: U,
+    lanes: M,
 ) -> V3 {
-    let index = U::ramp(first);
     let u = if spec.pixel_jitter { sample_2d(seeds, index, dim::PIXEL) } else { [F::splat(0.5), F::splat(0.5)] };
     let (corner, sx, sy) = (V3::splat(xyz(p.cam_corner)), V3::splat(xyz(p.cam_step_x)), V3::splat(xyz(p.cam_step_y)));
-    let dir = (corner + sx.scale(F::splat(x as f32) + u[0]) + sy.scale(F::splat(y as f32) + u[1])).normalize();
+    let dir = (corner + sx.scale(x + u[0]) + sy.scale(F::splat(y as f32) + u[1])).normalize();
     let t = if spec.time_sampling { sample_1d(seeds, index, dim::TIME) } else { F::splat(0.0) };
     let spheres = Spheres::at(p, spec, t);
     let floor_h = p.wrap_jump[3];
     let first_hit = intersect(V3::splat(xyz(p.cam_origin)), dir, U::splat(NONE), &spheres, floor_h);
-    radiance(p, spec, env, seeds, index, &spheres, dir, first_hit, M::first(count))
+    radiance(p, spec, env, seeds, index, &spheres, dir, first_hit, lanes)
 }
 
 /// The twin's `radiance_from` over the lanes of `active`.
@@ -299,7 +329,7 @@ fn radiance(
     p: &FrameParams,
     spec: &Specialisation,
     env: &[u32],
-    seeds: &PixelSeeds,
+    seeds: &LaneSeeds,
     index: U,
     s: &Spheres,
     camera_dir: V3,
