@@ -9,11 +9,13 @@
 //! screening, leave one participant out). [`logs`] reads and checks the
 //! runner's response logs, [`experiment`] analyses one experiment (matching accuracy and
 //! cost-aware equivalence included), [`report`] and [`plots`] write the report folder, and
-//! [`votes`] reads published vote totals.
+//! [`votes`] reads published vote totals, and [`forecast`] turns an image-computable
+//! observer's qualities into expected votes and groups and compares them with published ones.
 
 pub mod cost;
 pub mod experiment;
 pub mod factors;
+pub mod forecast;
 pub mod grouping;
 pub mod incomplete;
 pub mod logs;

@@ -271,6 +271,82 @@ impl VotesFigure {
     }
 }
 
+/// Forecast votes beside published ones: one point per stimulus (labelled), forecast on the
+/// horizontal axis, published on the vertical, with the rank correlations in the caption.
+#[derive(Debug, Clone)]
+pub struct ForecastScatter {
+    /// Title.
+    pub title: String,
+    /// Labels.
+    pub labels: Vec<String>,
+    /// Forecast (expected) votes.
+    pub predicted: Vec<f64>,
+    /// Published votes.
+    pub published: Vec<f64>,
+}
+
+impl Figure for ForecastScatter {
+    fn size(&self) -> (u32, u32) {
+        (640, 560)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let span = |v: &[f64]| {
+            let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+            let pad = ((hi - lo) * 0.1).max(1.0);
+            (lo - pad)..(hi + pad)
+        };
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, text_style(18.0))
+            .margin(14)
+            .x_label_area_size(45)
+            .y_label_area_size(55)
+            .build_cartesian_2d(span(&self.predicted), span(&self.published))
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("forecast votes (expected)")
+            .y_desc("published votes")
+            .label_style(text_style(14.0))
+            .axis_desc_style(text_style(15.0))
+            .draw()
+            .map_err(err)?;
+        let (lo, hi) = (span(&self.predicted), span(&self.published));
+        let (a, b) = (lo.start.max(hi.start), lo.end.min(hi.end));
+        if a < b {
+            chart.draw_series([PathElement::new(vec![(a, a), (b, b)], BLACK.mix(0.3).stroke_width(1))]).map_err(err)?;
+        }
+        for (i, l) in self.labels.iter().enumerate() {
+            let (x, y) = (self.predicted[i], self.published[i]);
+            chart.draw_series([Circle::new((x, y), 5, group_colour(0).filled())]).map_err(err)?;
+            chart
+                .draw_series([Text::new(l.clone(), (x, y), text_style(13.0).pos(Pos::new(HPos::Left, VPos::Bottom)))])
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+/// Two vote figures side by side (a forecast's groups beside the published ones).
+#[derive(Debug, Clone)]
+pub struct SideBySideVotes {
+    /// Left.
+    pub left: VotesFigure,
+    /// Right.
+    pub right: VotesFigure,
+}
+
+impl Figure for SideBySideVotes {
+    fn size(&self) -> (u32, u32) {
+        let (a, b) = (self.left.size(), self.right.size());
+        (a.0 + b.0, a.1.max(b.1))
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let (l, r) = root.split_horizontally(self.left.size().0);
+        self.left.draw_on(&l)?;
+        self.right.draw_on(&r)
+    }
+}
+
 impl Figure for VotesFigure {
     fn size(&self) -> (u32, u32) {
         ((180 + 70 * self.labels.len() as u32).max(640), 480)

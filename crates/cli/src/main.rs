@@ -24,6 +24,9 @@ enum Command {
     Analyze(cmd::analyze::Args),
     /// Statistical helpers (e.g. the studentized range quantile W).
     Stats(cmd::stats::Args),
+    /// Forecast a 2AFC experiment's votes and groups from the rendered sequences (an
+    /// image-computable observer: ColorVideoVDP, or FLIP as the baseline).
+    Predict(cmd::predict::Args),
     /// Benchmarks printing JSON.
     Bench(cmd::bench::Args),
     /// What accuracy costs in time: every method's error against its render time.
@@ -58,6 +61,7 @@ fn main() -> std::process::ExitCode {
         Command::Run(args) => cmd::run::run(&args),
         Command::Analyze(args) => cmd::analyze::run(&args),
         Command::Stats(args) => cmd::stats::run(&args),
+        Command::Predict(args) => cmd::predict::run(&args),
         Command::Bench(args) => cmd::bench::run(&args),
         Command::Cost(args) => cmd::cost::run(&args),
         Command::Demo(args) => cmd::demo::run(&args),

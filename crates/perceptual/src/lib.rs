@@ -9,8 +9,13 @@
 //! width of one eye's image, so that a stereo frame (two eyes side by side) is judged at the
 //! resolution each eye is seen at.
 //!
+//! [`cvvdp`] adds ColorVideoVDP (Mantiuk et al. 2024), a spatio-temporal metric in JOD units,
+//! for the observer that forecasts people's choices between sequences (`blurlab predict`).
+//!
 //! Both the cost report (`render::measure::cost`) and the image-computable observer of the runner
 //! (`--simulate flip`) use this crate; it links neither the renderer nor the runner.
+
+pub mod cvvdp;
 
 use std::fmt;
 

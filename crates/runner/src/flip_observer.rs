@@ -31,9 +31,11 @@ use crate::stimuli::{StimulusSet, decode_frame};
 pub const DEFAULT_SIGMA: f64 = 0.005;
 
 /// A sequence's frames and how to judge them.
-struct Frames {
-    images: Vec<SrgbImage>,
-    eyes: u32,
+pub struct Frames {
+    /// The 8-bit frames as shown (eyes side by side).
+    pub images: Vec<SrgbImage>,
+    /// Eyes per frame: 1 (mono) or 2 (side-by-side stereo).
+    pub eyes: u32,
 }
 
 /// Where a sequence is: its folder and verified manifest.
@@ -74,7 +76,9 @@ fn open_sequence(set: &StimulusSet, id: &StimulusId) -> Result<(std::path::PathB
     Ok((folder, manifest))
 }
 
-fn load_frames(set: &StimulusSet, id: &StimulusId) -> Result<Frames, RunnerError> {
+/// The frames of `id` in `set`, each checked against its manifest's hash (the image-computable
+/// observers judge exactly what a participant is shown).
+pub fn load_frames(set: &StimulusSet, id: &StimulusId) -> Result<Frames, RunnerError> {
     let (folder, m) = open_sequence(set, id)?;
     let mut images = Vec::with_capacity(m.frames.len());
     for f in &m.frames {

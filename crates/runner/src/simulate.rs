@@ -11,6 +11,13 @@
 //! - `flip[:sigma=S]`: the image-computable observer of [`crate::flip_observer`]: FLIP
 //!   distances of the frames themselves to the gold standard (2AFC) or to the reference
 //!   (matching), plus Gaussian decision noise of `S` FLIP units.
+//! - `cvvdp[:reference=eye|shutter]`: the ColorVideoVDP observer of `blurlab predict`. Its
+//!   qualities (JOD against the reference) and, for matching, its JOD distances of each
+//!   candidate from the shown reference are computed by the caller (the command line renders
+//!   the references) and handed over with [`ObserverModel::with_cvvdp`]. A 2AFC answer prefers
+//!   the first sequence with probability `Phi(z75 (Q_1 - Q_2))` (1 JOD = 75 %), a matching
+//!   answer picks the first candidate with `Phi(z75 (d_2 - d_1))`: the model's expected
+//!   choices plus the binomial sampling of real ones.
 //!
 //! Every draw for trial `k` comes from a PCG-64 seeded with `mix(seed, [OBSERVER_STREAM, k])`,
 //! so an interrupted and resumed simulated session writes the same answers as an
@@ -110,6 +117,16 @@ pub enum ObserverModel {
     },
     /// Answers at random.
     Random,
+    /// ColorVideoVDP qualities (JOD) and distances, with the choice probability of 1 JOD =
+    /// 75 %.
+    Cvvdp {
+        /// The reference the qualities are judged against (`eye` or `shutter`).
+        reference: String,
+        /// Quality per stimulus, JOD.
+        quality: HashMap<StimulusId, f64>,
+        /// `(shown reference, candidate)`: `10 - JOD` of the candidate against the reference.
+        distances: HashMap<(StimulusId, StimulusId), f64>,
+    },
     /// FLIP distances of the frames (`crate::flip_observer`) plus Gaussian decision noise.
     Flip {
         /// Standard deviation of the decision noise, FLIP units.
@@ -160,7 +177,24 @@ impl FromStr for ObserverModel {
                 }
                 Ok(ObserverModel::Thurstone { sigma, quality })
             }
-            _ => Err(bad("expected `thurstone[:sigma=S][,file=PATH]`, `flip[:sigma=S]` or `random`".into())),
+            "cvvdp" => {
+                let mut reference = "eye".to_owned();
+                for param in params.split(',').filter(|p| !p.is_empty()) {
+                    match param.split_once('=') {
+                        Some(("reference", v @ ("eye" | "shutter"))) => reference = v.to_owned(),
+                        _ => {
+                            return Err(bad(format!(
+                                "unknown parameter `{param}` (expected reference=eye or reference=shutter)"
+                            )));
+                        }
+                    }
+                }
+                Ok(ObserverModel::Cvvdp { reference, quality: HashMap::new(), distances: HashMap::new() })
+            }
+            _ => Err(bad(
+                "expected `thurstone[:sigma=S][,file=PATH]`, `flip[:sigma=S]`, `cvvdp[:reference=eye|shutter]` or `random`"
+                    .into(),
+            )),
         }
     }
 }
@@ -177,8 +211,34 @@ impl ObserverModel {
         }
     }
 
+    /// A ColorVideoVDP observer with its qualities and distances filled in.
+    pub fn with_cvvdp(
+        &self,
+        quality: HashMap<StimulusId, f64>,
+        distances: HashMap<(StimulusId, StimulusId), f64>,
+    ) -> ObserverModel {
+        match self {
+            ObserverModel::Cvvdp { reference, .. } => {
+                ObserverModel::Cvvdp { reference: reference.clone(), quality, distances }
+            }
+            other => other.clone(),
+        }
+    }
+
     /// Checks the model knows every stimulus of the schedule.
     pub fn check(&self, schedule: &[Trial]) -> Result<(), RunnerError> {
+        if let ObserverModel::Cvvdp { quality, distances, .. } = self {
+            let known = |t: &Trial, o: &StimulusId| match t.task {
+                Task::TwoAfc => quality.contains_key(o),
+                Task::Match => distances.contains_key(&(t.shown[0], *o)),
+            };
+            if let Some(t) = schedule.iter().find(|t| t.options().iter().any(|o| !known(t, o))) {
+                return Err(RunnerError::Input {
+                    what: "--simulate cvvdp".into(),
+                    message: format!("no ColorVideoVDP quality for trial {} ({})", t.index, crate::join_ids(&t.shown)),
+                });
+            }
+        }
         if let ObserverModel::Flip { distances, .. } = self {
             let known = |t: &Trial, o: &StimulusId| match t.task {
                 Task::TwoAfc => distances.keys().any(|(_, to)| to == o),
@@ -223,6 +283,18 @@ impl ObserverModel {
                 };
                 let (pa, pb) = (a + sigma * crate::normal(&mut rng), b + sigma * crate::normal(&mut rng));
                 (usize::from(pb < pa), (a - b).abs() / sigma.max(1e-9))
+            }
+            ObserverModel::Cvvdp { quality, distances, .. } => {
+                // `check` has made sure every value is there.
+                let q = |o: &StimulusId| quality.get(o).copied().unwrap_or(0.0);
+                let d = |o: &StimulusId| distances.get(&(trial.shown[0], *o)).copied().unwrap_or(0.0);
+                let (a, b) = match trial.task {
+                    Task::TwoAfc => (q(&options[0]), q(&options[1])),
+                    // Nearer the reference is better: distances enter with their sign flipped.
+                    Task::Match => (-d(&options[0]), -d(&options[1])),
+                };
+                let first = study::stats::jod_preference(a, b);
+                (usize::from(crate::unit_f64(&mut rng) >= first), study::stats::Z75 * (a - b).abs())
             }
             ObserverModel::Thurstone { sigma, quality } => {
                 let q = |id: &StimulusId| quality.of(id).unwrap_or(0.0);
@@ -400,6 +472,39 @@ mod tests {
         assert!((p - 0.760).abs() < 0.031, "{p}");
         let t = Trial { index: 3, practice: false, task: Task::TwoAfc, shown: vec![b, a] };
         assert_eq!(m.answer(&t, 5), m.answer(&t, 5));
+    }
+
+    #[test]
+    fn the_cvvdp_observer_prefers_one_jod_better_three_times_in_four() {
+        let a: StimulusId = "M2-S2-T3-A5".parse().unwrap();
+        let b: StimulusId = "M2-S2-T3-A1".parse().unwrap();
+        let c: StimulusId = "M2-S2-T3-A3".parse().unwrap();
+        let m: ObserverModel = "cvvdp:reference=shutter".parse().unwrap();
+        let m = m.with_cvvdp(
+            HashMap::from([(a, 8.0), (b, 7.0)]),
+            // Matching: from reference a, c is 0.5 JOD away and b 1.5: c is nearer by 1 JOD.
+            HashMap::from([((a, b), 1.5), ((a, c), 0.5)]),
+        );
+        let n = 4000;
+        let rate = |task: Task, shown: Vec<StimulusId>, winner: usize| {
+            let wins = (0..n)
+                .filter(|&i| {
+                    m.answer(&Trial { index: i, practice: false, task, shown: shown.clone() }, 9).slot == winner
+                })
+                .count();
+            wins as f64 / f64::from(n)
+        };
+        // Binomial standard error 0.0068: allow 4.5 of them.
+        let p = rate(Task::TwoAfc, vec![b, a], 1);
+        assert!((p - 0.75).abs() < 0.031, "{p}");
+        let p = rate(Task::Match, vec![a, b, c], 1);
+        assert!((p - 0.75).abs() < 0.031, "{p}");
+        // Without its qualities the model refuses the schedule, naming the trial.
+        let bare: ObserverModel = "cvvdp".parse().unwrap();
+        let e = bare.check(&[Trial { index: 0, practice: false, task: Task::TwoAfc, shown: vec![a, b] }]).unwrap_err();
+        assert!(e.to_string().contains("no ColorVideoVDP quality for trial 0"), "{e}");
+        let e = "cvvdp:reference=film".parse::<ObserverModel>().unwrap_err().to_string();
+        assert!(e.contains("unknown parameter `reference=film`"), "{e}");
     }
 
     #[test]

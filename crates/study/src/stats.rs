@@ -136,11 +136,58 @@ pub fn spearman(a: &[f64], b: &[f64]) -> f64 {
     correlation(&ranks(a), &ranks(b))
 }
 
+/// The standard normal distribution function `Phi(x)`.
+pub fn normal_cdf(x: f64) -> f64 {
+    0.5 * statrs::function::erf::erfc(-x / std::f64::consts::SQRT_2)
+}
+
+/// `Phi^-1(0.75)`: the probit of one JOD (just-objectionable difference).
+pub const Z75: f64 = 0.674_489_750_196_081_7;
+
+/// The probability that people prefer a sequence of quality `a` JOD over one of `b` JOD: by
+/// the unit's definition 1 JOD is 75 % preference, so with Thurstone's case V
+/// `P = Phi(z75 (a - b))`, no slope to fit.
+pub fn jod_preference(a: f64, b: f64) -> f64 {
+    normal_cdf(Z75 * (a - b))
+}
+
+/// Kendall's rank correlation tau-b: concordant minus discordant pairs over the geometric
+/// mean of the pairs untied in each sample (NaN when either sample is constant).
+pub fn kendall_tau_b(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len(), "Kendall's tau of samples of different lengths");
+    let (mut concordant, mut discordant, mut untied_a, mut untied_b) = (0i64, 0i64, 0i64, 0i64);
+    for i in 0..a.len() {
+        for j in i + 1..a.len() {
+            let (da, db) = ((a[i] - a[j]).signum(), (b[i] - b[j]).signum());
+            let (ta, tb) = (a[i] != a[j], b[i] != b[j]);
+            untied_a += i64::from(ta);
+            untied_b += i64::from(tb);
+            if ta && tb {
+                if da == db {
+                    concordant += 1;
+                } else {
+                    discordant += 1;
+                }
+            }
+        }
+    }
+    (concordant - discordant) as f64 / ((untied_a as f64) * (untied_b as f64)).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use proptest::prelude::*;
 
     use super::*;
+
+    #[test]
+    fn kendall_tau_b_counts_ties_as_scipy_does() {
+        // scipy.stats.kendalltau([1, 2, 3, 4, 5], [5, 6, 7, 8, 7]) = 0.737864787372622 (tau-b).
+        let t = kendall_tau_b(&[1.0, 2.0, 3.0, 4.0, 5.0], &[5.0, 6.0, 7.0, 8.0, 7.0]);
+        assert!((t - 0.737_864_787_372_622).abs() < 1e-12, "{t}");
+        assert!((kendall_tau_b(&[1.0, 2.0, 3.0], &[3.0, 2.0, 1.0]) + 1.0).abs() < 1e-12);
+        assert!(kendall_tau_b(&[1.0, 1.0], &[1.0, 2.0]).is_nan());
+    }
 
     #[test]
     fn spearman_uses_mid_ranks() {

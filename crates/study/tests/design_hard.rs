@@ -177,3 +177,24 @@ fn a_frame_rate_whose_times_overflow_the_path_is_refused() {
     refused(nav, "fps = 30.0", "fps = 1e300", "sequence.fps", "must lie in [1e-3, 1e5]");
     accepted(nav, "fps = 30.0", "fps = 0.001");
 }
+
+/// The display model of the image-computable observer: a luminance or distance that is zero
+/// or negative, or a black level at or above the peak, is refused naming file, line and key.
+#[test]
+fn a_display_without_light_or_distance_is_refused() {
+    let nav = "navarro2011.toml";
+    refused(
+        nav,
+        "peak_luminance = 200.0",
+        "peak_luminance = 0.0",
+        "viewing.peak_luminance",
+        "must be a positive number",
+    );
+    refused(nav, "black_level = 0.2", "black_level = -0.2", "viewing.black_level", "must be a positive number");
+    refused(nav, "black_level = 0.2", "black_level = 250.0", "viewing.black_level", "must lie below peak_luminance");
+    refused(nav, "ambient_lux = 250.0", "ambient_lux = -1.0", "viewing.ambient_lux", "must be a finite number >= 0");
+    refused(nav, "distance = 0.60", "distance = 0.0", "viewing.distance", "must be a positive number");
+    accepted(nav, "ambient_lux = 250.0", "ambient_lux = 0.0");
+    let d = Design::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/methods.toml")).unwrap();
+    assert_eq!(d.spec.viewing.peak_luminance, study::design::spec::DEFAULT_PEAK_LUMINANCE);
+}

@@ -4,6 +4,7 @@ pub mod analysis;
 pub mod analytic;
 pub mod analytic_accuracy;
 pub mod antialiasing;
+pub mod cvvdp;
 pub mod filters;
 pub mod methods;
 pub mod mlaa;
@@ -80,6 +81,8 @@ enum Which {
     Mlaa(mlaa::Args),
     /// Each antialiasing level's error on edge pixels against an 8 x 8-point reference.
     Antialiasing(antialiasing::Args),
+    /// ColorVideoVDP frames per second at 640x360, one thread and every core; peak memory.
+    Cvvdp(cvvdp::Args),
     /// Analysis speed: grouping, bootstrap scaling, W quantiles.
     Analysis(analysis::Args),
     /// Active pair selection (ASAP) against complete and random designs: accuracy per trial, selection time.
@@ -100,6 +103,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Which::Methods(a) => methods::run(a),
         Which::Mlaa(a) => mlaa::run(a),
         Which::Antialiasing(a) => antialiasing::run(a),
+        Which::Cvvdp(a) => cvvdp::run(a),
         Which::Analysis(a) => analysis::run(a),
         Which::Selection(a) => selection::run(a),
         Which::Playback(a) => playback::run(a),

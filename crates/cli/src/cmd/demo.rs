@@ -131,6 +131,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         &predicted,
         "simulated FLIP observers (`--simulate flip`, default decision noise), the same trials and seeds",
     );
+    let side = format!("{side}{}", cvvdp_forecasts(args, &definitions, &report)?);
     let side_path = folder.join("predicted-vs-measured.md");
     study::fsio::write_atomic(&side_path, side.as_bytes())
         .with_context(|| format!("writing {}", side_path.display()))?;
@@ -166,7 +167,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             }
         }
     }
-    println!("report: {} (groups predicted by FLIP beside them: {})", md.display(), side_path.display());
+    println!(
+        "report: {} (groups forecast by ColorVideoVDP and FLIP beside them: {})",
+        md.display(),
+        side_path.display()
+    );
 
     // What the equivalent groups cost: the tracer and the accumulation buffer swept on the
     // interaction experiments' cell (checker, medium speed, full shutter) at the quick
@@ -176,6 +181,70 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     let cost_md = super::cost::cost_report(&cost_args)?;
     println!("cost report: {}", cost_md.display());
     Ok(())
+}
+
+/// The ColorVideoVDP forecast of each experiment (`blurlab predict`, the `eye` reference, as
+/// many judges as the simulated participants' analysis counts) into `OUT/predict/NAME/`, and a
+/// Markdown section of its groups beside the measured ones.
+fn cvvdp_forecasts(
+    args: &Args,
+    definitions: &[ExperimentDefinition],
+    measured: &analysis::report::Report,
+) -> anyhow::Result<String> {
+    let mut md = String::from(
+        "\n# Forecast by ColorVideoVDP\n\nExpected votes of `blurlab predict` (the `eye` reference, no sampling noise), grouped \
+         with as many judges as the measured analysis counts. On the quick preset (160x90, 8 frames, 1-16 samples per \
+         pixel) this is not the study's forecast: see BENCHMARKS.md for the full preset's.\n",
+    );
+    for d in definitions {
+        let Some(e) = measured.experiments.iter().find(|e| e.name == d.name) else { continue };
+        let Some(p) = &e.paired else { continue };
+        let out = args.out.join("predict").join(&d.name);
+        let predict_args = super::predict::Args {
+            experiment: d.path.clone(),
+            stimuli: args.set.clone(),
+            observer: super::predict::ObserverArg::Cvvdp,
+            reference: super::predict::observer::ReferenceKind::Eye,
+            reference_spp: None,
+            sub_frames: 4,
+            clip: None,
+            votes: None,
+            judges: Some(p.complete_judges.max(1)),
+            alpha: Some(0.01),
+            device: super::stimuli::DeviceArg::Auto,
+            out: out.clone(),
+        };
+        let f = super::predict::forecast(d, &predict_args)?;
+        super::predict::write(
+            &f,
+            &out,
+            &format!(
+                "blurlab predict {} --stimuli {} --judges {} --out {}",
+                d.path.display(),
+                args.set.display(),
+                f.judges,
+                out.display()
+            ),
+        )?;
+        let measured: Vec<Vec<String>> =
+            p.groups.iter().map(|g| g.members.iter().map(|m| m.label.clone()).collect()).collect();
+        md.push_str(&format!(
+            "\n## {}\n\n{} Forecast report: `{}`.\n\n| group | measured | forecast |\n| --- | --- | --- |\n",
+            d.name,
+            if analysis::prediction::same_groups(&measured, &f.groups) {
+                "The groups agree."
+            } else {
+                "The groups differ."
+            },
+            out.join("predict.md").display()
+        ));
+        for k in 0..measured.len().max(f.groups.len()) {
+            let cell = |g: &[Vec<String>]| g.get(k).map_or("-".to_owned(), |m| format!("{{{}}}", m.join(", ")));
+            md.push_str(&format!("| G{} | {} | {} |\n", k + 1, cell(&measured), cell(&f.groups)));
+        }
+        eprintln!("demo: ColorVideoVDP forecast of {} in {}", d.name, out.display());
+    }
+    Ok(md)
 }
 
 /// Runs every experiment's simulated participants with `model` into a fresh `results`

@@ -4,6 +4,7 @@ pub mod analyze;
 pub mod bench;
 pub mod cost;
 pub mod demo;
+pub mod predict;
 pub mod render_frame;
 pub mod run;
 pub mod stats;

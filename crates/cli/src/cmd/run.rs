@@ -30,7 +30,9 @@ pub struct Args {
     results: PathBuf,
     /// Run headlessly with a simulated observer: `thurstone[:sigma=S][,file=PATH]`, `random`, or
     /// `flip[:sigma=S]` (answers from the frames: FLIP distance to the gold standard A5 of the
-    /// same material, speed and shutter; matching picks the candidate nearer the reference).
+    /// same material, speed and shutter; matching picks the candidate nearer the reference), or
+    /// `cvvdp[:reference=eye|shutter]` (the ColorVideoVDP observer of `blurlab predict`, its
+    /// choice probabilities sampled).
     #[arg(long)]
     simulate: Option<String>,
     /// Seed of a new session's schedule (and of the simulated observer). A resumed session
@@ -111,6 +113,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let seed = args
             .seed
             .ok_or_else(|| BadInput("--simulate needs --seed S (simulated sessions are reproducible)".into()))?;
+        let model = match &model {
+            ObserverModel::Cvvdp { reference, .. } => cvvdp_model(&model, reference, &definition, &args.stimuli, seed)?,
+            _ => model,
+        };
         let mut attributes = Vec::new();
         for a in &args.attributes {
             let (k, v) = a.split_once('=').ok_or_else(|| BadInput(format!("--attribute `{a}` is not KEY=VALUE")))?;
@@ -183,4 +189,36 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
 /// "1 trial", "2 trials".
 fn trials(n: usize) -> String {
     format!("{n} trial{}", if n == 1 { "" } else { "s" })
+}
+
+/// The ColorVideoVDP observer with what it needs for `definition`'s trials: every stimulus's
+/// quality (2AFC) or the JOD distance of each candidate from its shown reference (matching),
+/// computed as `blurlab predict` computes them (references rendered and cached in the set).
+fn cvvdp_model(
+    model: &ObserverModel,
+    reference: &str,
+    definition: &ExperimentDefinition,
+    set_dir: &Path,
+    seed: u64,
+) -> anyhow::Result<ObserverModel> {
+    use super::predict::observer::{ObserverSettings, ReferenceKind, distances};
+    let kind = if reference == "shutter" { ReferenceKind::Shutter } else { ReferenceKind::Eye };
+    match definition.task {
+        study::response::Task::TwoAfc => {
+            let (q, _) = super::predict::qualities_for(definition, set_dir, kind, None, render::DeviceChoice::Auto)?;
+            Ok(model.with_cvvdp(q.into_iter().collect(), Default::default()))
+        }
+        study::response::Task::Match => {
+            let (set, design, preset) = super::predict::open_set(set_dir, definition, true)?;
+            let settings = ObserverSettings::new(&design, &preset, kind, None, 4, None)?;
+            let mut pairs: Vec<(study::StimulusId, study::StimulusId)> = runner::schedule::build(definition, seed)
+                .iter()
+                .flat_map(|t| t.options().iter().map(|o| (t.shown[0], *o)).collect::<Vec<_>>())
+                .collect();
+            pairs.sort();
+            pairs.dedup();
+            let d = distances(&set, &pairs, &settings)?;
+            Ok(model.with_cvvdp(Default::default(), d.into_iter().collect()))
+        }
+    }
 }

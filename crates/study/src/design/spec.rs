@@ -57,6 +57,35 @@ pub struct ViewingSpec {
     pub distance: f64,
     /// Visual angle subtended by the image width (one eye's image), degrees.
     pub image_angle_degrees: f64,
+    /// The display's peak luminance, cd/m² (what the image-computable observer's display
+    /// model assumes; default [`DEFAULT_PEAK_LUMINANCE`]).
+    #[serde(default = "default_peak_luminance")]
+    pub peak_luminance: f64,
+    /// The display's black level, cd/m² (default [`DEFAULT_BLACK_LEVEL`]).
+    #[serde(default = "default_black_level")]
+    pub black_level: f64,
+    /// Ambient illuminance at the screen, lux (default [`DEFAULT_AMBIENT_LUX`]).
+    #[serde(default = "default_ambient_lux")]
+    pub ambient_lux: f64,
+}
+
+/// Peak luminance of an office LCD, cd/m² (ColorVideoVDP's `standard_fhd` display).
+pub const DEFAULT_PEAK_LUMINANCE: f64 = 200.0;
+/// Black level of an office LCD with a 1000:1 contrast, cd/m².
+pub const DEFAULT_BLACK_LEVEL: f64 = 0.2;
+/// Office lighting, lux (ColorVideoVDP's `standard_fhd` display).
+pub const DEFAULT_AMBIENT_LUX: f64 = 250.0;
+
+fn default_peak_luminance() -> f64 {
+    DEFAULT_PEAK_LUMINANCE
+}
+
+fn default_black_level() -> f64 {
+    DEFAULT_BLACK_LEVEL
+}
+
+fn default_ambient_lux() -> f64 {
+    DEFAULT_AMBIENT_LUX
 }
 
 /// `[camera]`: the centre camera.

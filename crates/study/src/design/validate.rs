@@ -145,6 +145,28 @@ impl Design {
         if !(s.viewing.image_angle_degrees > 0.0 && s.viewing.image_angle_degrees < 180.0) {
             return Err(self.invalid("viewing", None, "image_angle_degrees", "must lie in (0, 180)"));
         }
+        positive("viewing", "peak_luminance", s.viewing.peak_luminance)?;
+        positive("viewing", "black_level", s.viewing.black_level)?;
+        if s.viewing.black_level >= s.viewing.peak_luminance {
+            return Err(self.invalid(
+                "viewing",
+                None,
+                "black_level",
+                format!(
+                    "must lie below peak_luminance ({} cd/m²), found {}",
+                    num(s.viewing.peak_luminance),
+                    num(s.viewing.black_level)
+                ),
+            ));
+        }
+        if !(s.viewing.ambient_lux.is_finite() && s.viewing.ambient_lux >= 0.0) {
+            return Err(self.invalid(
+                "viewing",
+                None,
+                "ambient_lux",
+                format!("must be a finite number >= 0, found {}", num(s.viewing.ambient_lux)),
+            ));
+        }
         positive("camera", "distance", s.camera.distance)?;
         positive("camera", "focal_length", s.camera.focal_length)?;
         positive("camera", "sensor_width", s.camera.sensor_width)?;

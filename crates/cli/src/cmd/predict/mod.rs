@@ -1,0 +1,551 @@
+//! `blurlab predict`: what people will choose in a 2AFC experiment, forecast from the
+//! rendered sequences by an image-computable observer, without sampling noise.
+//!
+//! - `--observer cvvdp` (default): each sequence's quality in JOD from ColorVideoVDP against
+//!   its reference ([`observer`]); `P(i over j) = Phi(z75 (Q_i - Q_j))`
+//!   (`analysis::forecast`).
+//! - `--observer flip`: the FLIP observer of `--simulate flip` (distances to the gold
+//!   standard, its default decision noise), as the baseline.
+//!
+//! The report (`predict.md`, `predict.json`, `votes.csv`, `matrix.csv`, figures) holds the
+//! expected vote matrix, the expected votes, David's groups on the expected counts with a
+//! stated number of judges, and with `--votes TABLE` the rank correlations and group
+//! agreement with a published table.
+
+pub mod observer;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use analysis::forecast::{Agreement, ExpectedVotes, agreement, preference_from_distances, preference_from_jod};
+use analysis::plots::{ForecastScatter, SideBySideVotes, VotesFigure, save_figure};
+use analysis::votes::VoteTable;
+use anyhow::Context as _;
+use runner::stimuli::StimulusSet;
+use serde::Serialize;
+use study::StimulusId;
+use study::experiment::ExperimentDefinition;
+use study::response::Task;
+
+use self::observer::{ObserverSettings, ReferenceKind};
+use super::BadInput;
+use super::stimuli::DeviceArg;
+
+/// Which observer forecasts the choices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ObserverArg {
+    /// ColorVideoVDP qualities in JOD.
+    Cvvdp,
+    /// FLIP distances to the gold standard (the baseline).
+    Flip,
+}
+
+impl ObserverArg {
+    /// The name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            ObserverArg::Cvvdp => "cvvdp",
+            ObserverArg::Flip => "flip",
+        }
+    }
+}
+
+/// Arguments.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The experiment definition (a 2AFC experiment, e.g. experiments/mono-2-sampling-2afc.toml).
+    pub experiment: PathBuf,
+    /// The rendered stimulus set holding the experiment's sequences.
+    #[arg(long)]
+    pub stimuli: PathBuf,
+    /// The observer.
+    #[arg(long, value_enum, default_value_t = ObserverArg::Cvvdp)]
+    pub observer: ObserverArg,
+    /// What ColorVideoVDP compares each sequence with (chosen on the mono tables; see
+    /// BENCHMARKS.md, "The ColorVideoVDP observer").
+    #[arg(long, value_enum, default_value_t = ReferenceKind::Eye)]
+    pub reference: ReferenceKind,
+    /// Samples per pixel of each reference frame (default: twice the set's highest level).
+    #[arg(long)]
+    pub reference_spp: Option<u32>,
+    /// Sub-frames per displayed frame of the `eye` reference.
+    #[arg(long, default_value_t = 4)]
+    pub sub_frames: u32,
+    /// The clip judged: frames FIRST..END of the set's sequences (0-based, END excluded;
+    /// default: every frame of the set's preset).
+    #[arg(long, value_parser = parse_clip)]
+    pub clip: Option<(u32, u32)>,
+    /// A published table of vote totals (`blurlab-votes/1`) to compare with.
+    #[arg(long)]
+    pub votes: Option<PathBuf>,
+    /// Judgements per pair of the forecast (default: the table's `judges`, else 20).
+    #[arg(long)]
+    pub judges: Option<u32>,
+    /// Significance level of the grouping (default: the table's `alpha`, else 0.01).
+    #[arg(long)]
+    pub alpha: Option<f64>,
+    /// Device that renders the references.
+    #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
+    pub device: DeviceArg,
+    /// Report folder.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Parses `FIRST..END`.
+fn parse_clip(text: &str) -> Result<(u32, u32), String> {
+    let (a, b) = text.split_once("..").ok_or_else(|| format!("`{text}` is not FIRST..END (e.g. 0..30)"))?;
+    let num = |s: &str| s.trim().parse::<u32>().map_err(|_| format!("`{s}` in `{text}` is not a frame number"));
+    let (a, b) = (num(a)?, num(b)?);
+    if a >= b {
+        return Err(format!("`{text}`: END must exceed FIRST"));
+    }
+    Ok((a, b))
+}
+
+fn bad(e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow::Error::new(BadInput(e.to_string()))
+}
+
+/// One stimulus of a forecast.
+#[derive(Debug, Clone, Serialize)]
+pub struct ForecastRow {
+    /// Stimulus id.
+    pub id: String,
+    /// Label (the levels of the factors that vary).
+    pub label: String,
+    /// ColorVideoVDP quality (JOD; mean of the eyes), or the FLIP distance.
+    pub score: f64,
+    /// Each eye's JOD (ColorVideoVDP).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub eyes: Vec<f64>,
+    /// Expected votes.
+    pub votes: f64,
+    /// Published votes, where a table was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub published: Option<u32>,
+}
+
+/// A forecast of one experiment.
+#[derive(Debug, Clone, Serialize)]
+pub struct Forecast {
+    /// Format tag.
+    pub format: String,
+    /// Experiment name.
+    pub experiment: String,
+    /// The observer.
+    pub observer: ObserverArg,
+    /// ColorVideoVDP's settings (reference, clip, display).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub settings: Option<ObserverSettings>,
+    /// What a score is.
+    pub score: String,
+    /// Per stimulus.
+    pub stimuli: Vec<ForecastRow>,
+    /// `P(row over column)`.
+    pub probability: Vec<Vec<f64>>,
+    /// Judgements per pair.
+    pub judges: u32,
+    /// Significance level.
+    pub alpha: f64,
+    /// `ceil(R_c)` of the grouping.
+    pub ceil_rc: u64,
+    /// David's groups of the expected votes, most preferred first.
+    pub groups: Vec<Vec<String>>,
+    /// The published table, where given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub published_table: Option<PathBuf>,
+    /// The published groups (the table's `expected_groups`, else David's groups of its votes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub published_groups: Option<Vec<Vec<String>>>,
+    /// Agreement with the table.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub agreement: Option<Agreement>,
+}
+
+/// A label's level tokens, sorted: `A4T3`, `T3-A4` and `a4 t3` give `[A4, T3]`.
+fn level_tokens(label: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    for c in label.chars() {
+        let after_digit = cur.chars().last().is_some_and(|p| p.is_ascii_digit());
+        if c.is_ascii_alphabetic() && after_digit {
+            out.push(std::mem::take(&mut cur));
+        }
+        if c.is_ascii_alphanumeric() {
+            cur.push(c.to_ascii_uppercase());
+        } else if !cur.is_empty() {
+            out.push(std::mem::take(&mut cur));
+        }
+    }
+    if !cur.is_empty() {
+        out.push(cur);
+    }
+    out.sort();
+    out
+}
+
+/// The position in `labels` of a published table's label (the same factor levels).
+fn label_index(label: &str, labels: &[String]) -> Option<usize> {
+    let t = level_tokens(label);
+    labels.iter().position(|l| level_tokens(l) == t)
+}
+
+/// The votes of a published table for each of the experiment's stimuli (by `labels`); every
+/// stimulus must appear, and nothing else.
+fn match_table(table: &VoteTable, labels: &[String]) -> anyhow::Result<Vec<u32>> {
+    let mut votes = vec![None; labels.len()];
+    for (label, v) in table.labels.iter().zip(&table.votes) {
+        let k = label_index(label, labels).ok_or_else(|| {
+            bad(format!(
+                "{}: stimulus `{label}` is not one of the experiment's ({})",
+                table.path.display(),
+                labels.join(", ")
+            ))
+        })?;
+        votes[k] = Some(*v);
+    }
+    let missing: Vec<&str> = labels.iter().zip(&votes).filter(|(_, v)| v.is_none()).map(|(l, _)| l.as_str()).collect();
+    if !missing.is_empty() {
+        return Err(bad(format!(
+            "{}: the table has no votes for {} of the experiment's stimuli",
+            table.path.display(),
+            missing.join(", ")
+        )));
+    }
+    Ok(votes.into_iter().flatten().collect())
+}
+
+/// The experiment's judged stimuli (its `[stimuli]` grid) and their labels.
+fn stimuli_of(definition: &ExperimentDefinition) -> (Vec<StimulusId>, Vec<String>) {
+    let mut ids: Vec<StimulusId> = definition.stimuli.clone();
+    ids.sort();
+    ids.dedup();
+    let varying = analysis::experiment::varying_factors(&ids);
+    let labels = ids.iter().map(|id| analysis::experiment::short_label(id, &varying)).collect();
+    (ids, labels)
+}
+
+/// Opens the set for the stimuli `definition`'s trials show (its grid, and its practice pairs
+/// where `practice`; the briefing's examples are not judged), naming any it lacks, with its
+/// design and preset.
+pub fn open_set(
+    set_dir: &Path,
+    definition: &ExperimentDefinition,
+    practice: bool,
+) -> anyhow::Result<(StimulusSet, study::design::Design, study::design::Preset)> {
+    let mut judged = definition.clone();
+    judged.briefing.examples.clear();
+    if !practice {
+        judged.practice.clear();
+    }
+    let set = StimulusSet::open_for(set_dir, &judged).map_err(|e| match e {
+        e @ (runner::RunnerError::MissingStimuli { .. } | runner::RunnerError::Sequence { .. }) => bad(e),
+        e => anyhow::Error::new(e),
+    })?;
+    let design_path = set_dir.join("design.toml");
+    let design = study::design::Design::load(&design_path).map_err(|e| bad(format!("the set's design: {e}")))?;
+    let preset = design.preset(&set.index.preset).map_err(|e| bad(format!("the set's preset: {e}")))?;
+    Ok((set, design, preset))
+}
+
+/// Forecasts `definition` on the set in `args.stimuli`.
+pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Result<Forecast> {
+    if definition.task != Task::TwoAfc {
+        return Err(bad(format!(
+            "{}: a {} experiment; `predict` forecasts 2AFC preference votes (matching trials are answered by `blurlab run --simulate cvvdp`)",
+            definition.path.display(),
+            definition.task
+        )));
+    }
+    let (ids, labels) = stimuli_of(definition);
+    let table = args.votes.as_deref().map(VoteTable::read).transpose().map_err(bad)?;
+    let published = table.as_ref().map(|t| match_table(t, &labels)).transpose()?;
+    let judges = match (args.judges, &table) {
+        (Some(j), _) => j,
+        (None, Some(t)) => t.judges().map_err(bad)?.unwrap_or(20),
+        (None, None) => 20,
+    };
+    let alpha = match (args.alpha, &table) {
+        (Some(a), _) => a,
+        (None, Some(t)) => t.alpha().map_err(bad)?.unwrap_or(0.01),
+        (None, None) => 0.01,
+    };
+    let (set, design, preset) = open_set(&args.stimuli, definition, false)?;
+    let (rows_score, eyes, expected, settings, score): (Vec<f64>, Vec<Vec<f64>>, ExpectedVotes, _, String) = match args
+        .observer
+    {
+        ObserverArg::Cvvdp => {
+            let settings = ObserverSettings::new(
+                &design,
+                &preset,
+                args.reference,
+                args.reference_spp,
+                args.sub_frames,
+                args.clip,
+            )?;
+            let q = observer::qualities(&set, &design, &preset, &ids, &settings, args.device.into())?;
+            let jod: Vec<f64> = ids.iter().map(|id| q[id].jod()).collect();
+            let eyes = ids.iter().map(|id| q[id].eyes.clone()).collect();
+            let expected = ExpectedVotes::new(labels.clone(), judges, |i, j| preference_from_jod(jod[i], jod[j]));
+            let what = format!(
+                "ColorVideoVDP quality (JOD, 10 = no visible difference) against the `{}` reference",
+                settings.reference.name()
+            );
+            (jod, eyes, expected, Some(settings), what)
+        }
+        ObserverArg::Flip => {
+            let schedule = runner::schedule::build(definition, 0);
+            let d = runner::flip_observer::distances(&set, &schedule)?;
+            let dist: Vec<f64> =
+                ids.iter().map(|id| d.iter().find(|((_, to), _)| to == id).map_or(0.0, |(_, v)| *v)).collect();
+            let sigma = runner::flip_observer::DEFAULT_SIGMA;
+            let expected =
+                ExpectedVotes::new(labels.clone(), judges, |i, j| preference_from_distances(dist[i], dist[j], sigma));
+            let what = format!(
+                "mean FLIP distance to the gold standard (the same shutter at the set's highest sampling level); decision noise {sigma} per distance"
+            );
+            (dist, vec![Vec::new(); ids.len()], expected, None, what)
+        }
+    };
+    let (critical, groups) = expected.groups(alpha).map_err(bad)?;
+    let (published_groups, agreement) = match (&table, &published) {
+        (Some(t), Some(p)) => {
+            let pg = match t.expected_groups() {
+                Some(g) => g,
+                None => analysis::votes::analyze_votes(t, judges, alpha).map_err(bad)?.groups,
+            };
+            // The table's labels are its own spelling: map them to ours.
+            let pg = pg
+                .into_iter()
+                .map(|members| {
+                    members
+                        .iter()
+                        .map(|m| {
+                            label_index(m, &labels).map(|k| labels[k].clone()).ok_or_else(|| {
+                                bad(format!("{}: group member `{m}` is not one of the stimuli", t.path.display()))
+                            })
+                        })
+                        .collect::<anyhow::Result<Vec<String>>>()
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let pv: Vec<f64> = p.iter().map(|&v| f64::from(v)).collect();
+            let a = agreement(&labels, &expected.votes, &groups, &pv, &pg);
+            (Some(pg), Some(a))
+        }
+        _ => (None, None),
+    };
+    let stimuli = ids
+        .iter()
+        .enumerate()
+        .map(|(i, id)| ForecastRow {
+            id: id.to_string(),
+            label: labels[i].clone(),
+            score: rows_score[i],
+            eyes: eyes[i].clone(),
+            votes: expected.votes[i],
+            published: published.as_ref().map(|p| p[i]),
+        })
+        .collect();
+    Ok(Forecast {
+        format: "blurlab-predict/1".into(),
+        experiment: definition.name.clone(),
+        observer: args.observer,
+        settings,
+        score,
+        stimuli,
+        probability: expected.probability,
+        judges,
+        alpha,
+        ceil_rc: critical.ceil_rc,
+        groups,
+        published_table: args.votes.clone(),
+        published_groups,
+        agreement,
+    })
+}
+
+/// The Markdown report of a forecast.
+pub fn markdown(f: &Forecast, command: &str) -> String {
+    let mut md = format!("# Forecast: {}\n\nCommand: `{command}`\n\n", f.experiment);
+    md.push_str(&format!("Observer: `{}`. Score: {}.\n", f.observer.name(), f.score));
+    if let Some(s) = &f.settings {
+        md.push_str(&format!(
+            "\n- reference: `{}` at {} samples per pixel{}\n- clip: frames {}..{} of the set's sequences at {} fps\n- display: {:.2} pixels per degree, peak {} cd/m², black {} cd/m², ambient {} lux\n- metric: {}\n- stereo: each eye judged apart, the quality is the mean of the two eyes' JOD\n",
+            s.reference.name(),
+            s.reference_spp,
+            if s.reference == ReferenceKind::Eye { format!(", {} sub-frames per frame", s.sub_frames) } else { String::new() },
+            s.clip.0,
+            s.clip.1,
+            s.fps,
+            s.pixels_per_degree,
+            s.peak_luminance,
+            s.black_level,
+            s.ambient_lux,
+            s.metric
+        ));
+    }
+    md.push_str(&format!(
+        "\nChoice model: P(i over j) = {}. Expected votes: {} judgements of each pair; David's groups at alpha = {} (ceil(R_c) = {}).\n\n",
+        match f.observer {
+            ObserverArg::Cvvdp => "Phi(z75 (Q_i - Q_j)), z75 = Phi^-1(0.75): 1 JOD = 75 % preference, no fitted slope",
+            ObserverArg::Flip => "Phi((d_j - d_i) / (sigma sqrt 2)): the FLIP observer's noisy decision",
+        },
+        f.judges,
+        f.alpha,
+        f.ceil_rc
+    ));
+    md.push_str("| stimulus | id | score | expected votes | published votes |\n| --- | --- | ---: | ---: | ---: |\n");
+    let mut order: Vec<&ForecastRow> = f.stimuli.iter().collect();
+    order.sort_by(|a, b| b.votes.total_cmp(&a.votes));
+    for r in order {
+        let eyes = if r.eyes.len() > 1 {
+            format!(" ({})", r.eyes.iter().map(|e| format!("{e:.3}")).collect::<Vec<_>>().join(" / "))
+        } else {
+            String::new()
+        };
+        md.push_str(&format!(
+            "| {} | {} | {:.4}{eyes} | {:.2} | {} |\n",
+            r.label,
+            r.id,
+            r.score,
+            r.votes,
+            r.published.map_or("-".into(), |p| p.to_string())
+        ));
+    }
+    let fmt_groups =
+        |g: &[Vec<String>]| g.iter().map(|m| format!("{{{}}}", m.join(", "))).collect::<Vec<_>>().join(" ");
+    md.push_str(&format!("\nForecast groups: {}\n", fmt_groups(&f.groups)));
+    if let (Some(pg), Some(a)) = (&f.published_groups, &f.agreement) {
+        md.push_str(&format!(
+            "\nPublished groups: {}\n\nAgreement with `{}`: Spearman {:.3}, Kendall tau-b {:.3}, adjusted Rand index of the groups {:.3}{}.\n",
+            fmt_groups(pg),
+            f.published_table.as_ref().map_or(String::new(), |p| p.display().to_string()),
+            a.spearman,
+            a.kendall,
+            a.adjusted_rand,
+            if a.same_groups { " (the same groups)" } else { "" }
+        ));
+    }
+    md
+}
+
+/// Writes the report folder.
+pub fn write(f: &Forecast, out: &Path, command: &str) -> anyhow::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
+    let mut written = Vec::new();
+    let mut put = |name: &str, bytes: &[u8]| -> anyhow::Result<()> {
+        let p = out.join(name);
+        study::fsio::write_atomic(&p, bytes).with_context(|| format!("{}: cannot write", p.display()))?;
+        written.push(p);
+        Ok(())
+    };
+    put("predict.json", &serde_json::to_vec_pretty(f)?)?;
+    put("predict.md", markdown(f, command).as_bytes())?;
+    let mut votes = String::from("stimulus,id,score,expected_votes,published_votes\n");
+    for r in &f.stimuli {
+        votes.push_str(&format!(
+            "{},{},{},{},{}\n",
+            r.label,
+            r.id,
+            r.score,
+            r.votes,
+            r.published.map_or(String::new(), |p| p.to_string())
+        ));
+    }
+    put("votes.csv", votes.as_bytes())?;
+    let labels: Vec<String> = f.stimuli.iter().map(|r| r.label.clone()).collect();
+    let mut matrix = format!("row_over_column,{}\n", labels.join(","));
+    for (l, row) in labels.iter().zip(&f.probability) {
+        matrix.push_str(&format!("{l},{}\n", row.iter().map(f64::to_string).collect::<Vec<_>>().join(",")));
+    }
+    put("matrix.csv", matrix.as_bytes())?;
+    let index = |g: &[Vec<String>]| -> Vec<Vec<usize>> {
+        g.iter().map(|m| m.iter().filter_map(|x| labels.iter().position(|l| l == x)).collect()).collect()
+    };
+    let forecast_figure = VotesFigure {
+        title: format!("forecast ({}, rounded)", f.observer.name()),
+        labels: labels.clone(),
+        votes: f.stimuli.iter().map(|r| r.votes.round().max(0.0) as u32).collect(),
+        groups: index(&f.groups),
+        ceil_rc: Some(f.ceil_rc),
+    };
+    let mut figures = Vec::new();
+    match (&f.published_groups, &f.agreement) {
+        (Some(pg), Some(a)) => {
+            let published = VotesFigure {
+                title: "published".into(),
+                labels: labels.clone(),
+                votes: f.stimuli.iter().map(|r| r.published.unwrap_or(0)).collect(),
+                groups: index(pg),
+                ceil_rc: None,
+            };
+            figures.extend(save_figure(&SideBySideVotes { left: forecast_figure, right: published }, out, "groups")?);
+            let scatter = ForecastScatter {
+                title: format!(
+                    "{}: Spearman {:.2}, Kendall {:.2}, ARI {:.2}",
+                    f.experiment, a.spearman, a.kendall, a.adjusted_rand
+                ),
+                labels: labels.clone(),
+                predicted: f.stimuli.iter().map(|r| r.votes).collect(),
+                published: f.stimuli.iter().map(|r| f64::from(r.published.unwrap_or(0))).collect(),
+            };
+            figures.extend(save_figure(&scatter, out, "predicted-vs-published")?);
+        }
+        _ => figures.extend(save_figure(&forecast_figure, out, "groups")?),
+    }
+    written.extend(figures);
+    Ok(written)
+}
+
+/// Runs the subcommand.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let started = std::time::Instant::now();
+    let definition = ExperimentDefinition::read(&args.experiment).map_err(bad)?;
+    let f = forecast(&definition, args)?;
+    let command: String = std::env::args().collect::<Vec<_>>().join(" ");
+    let written = write(&f, &args.out, &command)?;
+    print!("{}", markdown(&f, &command));
+    eprintln!("wrote {}", written.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "));
+    eprintln!(
+        "predicted in {:.1} s, peak memory {}",
+        started.elapsed().as_secs_f64(),
+        super::bench::cvvdp::peak_resident_bytes().map_or("unknown".into(), |b| format!("{:.0} MB", b as f64 / 1e6))
+    );
+    Ok(())
+}
+
+/// The per-stimulus qualities a forecast is made of, for other commands (`run --simulate
+/// cvvdp`, `demo`).
+pub fn qualities_for(
+    definition: &ExperimentDefinition,
+    set_dir: &Path,
+    reference: ReferenceKind,
+    clip: Option<(u32, u32)>,
+    device: render::DeviceChoice,
+) -> anyhow::Result<(BTreeMap<StimulusId, f64>, ObserverSettings)> {
+    let (set, design, preset) = open_set(set_dir, definition, true)?;
+    let settings = ObserverSettings::new(&design, &preset, reference, None, 4, clip)?;
+    let mut judged = definition.clone();
+    judged.briefing.examples.clear();
+    let ids: Vec<StimulusId> = judged.all_stimuli().into_iter().collect();
+    let q = observer::qualities(&set, &design, &preset, &ids, &settings, device)?;
+    Ok((q.into_iter().map(|(id, j)| (id, j.jod())).collect(), settings))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn published_labels_match_whatever_their_spelling() {
+        let ours: Vec<String> = ["T3-A3", "T3-A4", "T4-A3"].iter().map(|s| s.to_string()).collect();
+        assert_eq!(label_index("A4T3", &ours), Some(1));
+        assert_eq!(label_index("a3 t4", &ours), Some(2));
+        assert_eq!(label_index("A5T3", &ours), None);
+        assert_eq!(level_tokens("A10T3"), ["A10", "T3"]);
+        assert_eq!(parse_clip("45..75"), Ok((45, 75)));
+        assert!(parse_clip("5..5").is_err() && parse_clip("x..3").is_err() && parse_clip("3").is_err());
+    }
+}

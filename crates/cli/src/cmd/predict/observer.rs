@@ -1,0 +1,423 @@
+//! The ColorVideoVDP observer's qualities: each sequence of a stimulus set judged once against
+//! its reference, over a clip of its frames, with the references rendered once and both
+//! cached in the set folder (`SET/observer/`), so that a killed prediction resumes where it
+//! stopped and every later prediction reuses them.
+//!
+//! References (what each sequence is compared with, [`ReferenceKind`]):
+//! - `shutter`: the converged tracer rendering of the same material, speed, shutter and view
+//!   (fidelity within a shutter: only noise costs quality);
+//! - `eye`: the motion as the eye would see it, the same material, speed and view without a
+//!   camera shutter: `K` sub-frames per displayed frame, each averaging its own `1/(K fps)` of
+//!   the frame interval (what a display `K` times faster would show of the continuous
+//!   motion). The test clip is held for `K` sub-frames, as the display holds it, so that
+//!   ColorVideoVDP's temporal channels judge strobing (too little blur) and smear (too much)
+//!   as well as noise.
+//!
+//! Reference frames are rendered with the set's design and preset, at `reference_spp`
+//! samples per pixel, with seeds drawn apart from the stimuli's (no noise shared with a test
+//! sequence).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use perceptual::SrgbImage;
+use perceptual::cvvdp::{Clip, DisplayConditions, Judgement, Threads, VideoObserver};
+use runner::stimuli::StimulusSet;
+use serde::{Deserialize, Serialize};
+use study::design::{Design, Preset};
+use study::scene::{FrameScene, Shutter};
+use study::{StimulusId, View};
+
+use crate::cmd::BadInput;
+
+/// Stream constant of the references' sample seeds.
+const REFERENCE_STREAM: u64 = 0x5EF3_2E9C;
+
+/// Format tag of the score cache.
+const SCORES_FORMAT: &str = "blurlab-observer-scores/1";
+
+/// What each sequence is compared with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ReferenceKind {
+    /// The converged rendering of the same shutter.
+    Shutter,
+    /// The continuous motion without a camera shutter, at several sub-frames per frame.
+    Eye,
+}
+
+impl ReferenceKind {
+    /// The name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            ReferenceKind::Shutter => "shutter",
+            ReferenceKind::Eye => "eye",
+        }
+    }
+}
+
+/// Everything a quality depends on besides the set's frames.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ObserverSettings {
+    /// The reference.
+    pub reference: ReferenceKind,
+    /// Samples per pixel of each reference frame (or sub-frame).
+    pub reference_spp: u32,
+    /// Sub-frames per displayed frame of the `eye` reference (1 for `shutter`).
+    pub sub_frames: u32,
+    /// The clip: frames `first..end` of the set's sequences (0-based, end excluded).
+    pub clip: (u32, u32),
+    /// Pixels of one eye's image per degree.
+    pub pixels_per_degree: f64,
+    /// Frames per second the sequences are shown at.
+    pub fps: f64,
+    /// Display peak luminance, cd/m².
+    pub peak_luminance: f64,
+    /// Display black level, cd/m².
+    pub black_level: f64,
+    /// Ambient illuminance, lux.
+    pub ambient_lux: f64,
+    /// The metric's version.
+    pub metric: String,
+}
+
+impl ObserverSettings {
+    /// The settings for `set`'s design and preset: the display from the design's `[viewing]`.
+    pub fn new(
+        design: &Design,
+        preset: &Preset,
+        reference: ReferenceKind,
+        reference_spp: Option<u32>,
+        sub_frames: u32,
+        clip: Option<(u32, u32)>,
+    ) -> anyhow::Result<ObserverSettings> {
+        let clip = clip.unwrap_or((0, preset.frames));
+        if clip.0 >= clip.1 || clip.1 > preset.frames {
+            return Err(BadInput(format!(
+                "--clip {}..{}: the set's sequences (preset `{}`) have frames 0..{}; a clip needs at least one of them",
+                clip.0, clip.1, preset.name, preset.frames
+            ))
+            .into());
+        }
+        if !(1..=64).contains(&sub_frames) {
+            return Err(BadInput(format!("--sub-frames {sub_frames}: expected 1 to 64")).into());
+        }
+        let top = preset.samples_per_pixel.iter().copied().max().unwrap_or(1);
+        let reference_spp = reference_spp.unwrap_or(2 * top);
+        if reference_spp == 0 || reference_spp > 1 << 20 {
+            return Err(BadInput(format!("--reference-spp {reference_spp}: expected 1 to 1048576")).into());
+        }
+        let v = &design.spec.viewing;
+        Ok(ObserverSettings {
+            reference,
+            reference_spp,
+            sub_frames: if reference == ReferenceKind::Eye { sub_frames } else { 1 },
+            clip,
+            pixels_per_degree: design.pixels_per_degree(preset.width),
+            fps: design.spec.sequence.fps,
+            peak_luminance: v.peak_luminance,
+            black_level: v.black_level,
+            ambient_lux: v.ambient_lux,
+            metric: format!("ColorVideoVDP {} (colorvideovdp crate 0.1)", colorvideovdp::Cvvdp::MODEL_VERSION),
+        })
+    }
+
+    /// The display conditions.
+    pub fn display(&self) -> DisplayConditions {
+        DisplayConditions {
+            pixels_per_degree: self.pixels_per_degree,
+            peak_luminance: self.peak_luminance,
+            black_level: self.black_level,
+            ambient_lux: self.ambient_lux,
+        }
+    }
+
+    /// The reference folder's name: kind, samples, sub-frames and clip.
+    fn reference_folder(&self) -> String {
+        match self.reference {
+            ReferenceKind::Shutter => format!("shutter-{}spp-f{}-{}", self.reference_spp, self.clip.0, self.clip.1),
+            ReferenceKind::Eye => {
+                format!("eye-{}spp-{}sub-f{}-{}", self.reference_spp, self.sub_frames, self.clip.0, self.clip.1)
+            }
+        }
+    }
+
+    /// A short hash of the settings (the score cache's name).
+    fn key(&self) -> anyhow::Result<String> {
+        let json = serde_json::to_vec(self)?;
+        Ok(study::fsio::sha256_hex(&json)[..16].to_owned())
+    }
+}
+
+/// The cached qualities of one set under one setting.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct ScoreCache {
+    format: String,
+    /// The set's content hash the scores were computed from.
+    stimulus_set_sha256: String,
+    settings: ObserverSettings,
+    /// Per sequence (by id): each eye's JOD.
+    scores: BTreeMap<String, Vec<f64>>,
+}
+
+/// Where the observer keeps its work in a set.
+pub fn observer_dir(set: &Path) -> PathBuf {
+    set.join("observer")
+}
+
+/// The folder name of a reference: material, speed (and shutter for `shutter`), view.
+fn reference_key(id: &StimulusId, kind: ReferenceKind) -> String {
+    let view = if id.view == View::Stereo { "-stereo" } else { "" };
+    match kind {
+        ReferenceKind::Shutter => format!("M{}-S{}-T{}{view}", id.material, id.speed, id.shutter),
+        ReferenceKind::Eye => format!("M{}-S{}{view}", id.material, id.speed),
+    }
+}
+
+/// The scene of sub-frame `sub` of frame `frame` of `id`'s reference.
+fn reference_scene(
+    design: &Design,
+    preset: &Preset,
+    id: &StimulusId,
+    frame: u32,
+    sub: u32,
+    settings: &ObserverSettings,
+) -> anyhow::Result<FrameScene> {
+    let mut scene = design.frame_scene_with(preset, id, frame).map_err(|e| BadInput(e.to_string()))?;
+    scene.samples_per_pixel = settings.reference_spp;
+    scene.antialias = None;
+    if settings.reference == ReferenceKind::Eye {
+        let fps = design.spec.sequence.fps;
+        let start = scene.frame_time - design.spec.sequence.frame_time_offset / fps;
+        let step = 1.0 / (fps * f64::from(settings.sub_frames));
+        scene.shutter = Shutter { open: start + f64::from(sub) * step, close: start + f64::from(sub + 1) * step };
+    }
+    for view in &mut scene.views {
+        view.seed = study::seed::mix(view.seed, &[REFERENCE_STREAM, u64::from(sub)]);
+    }
+    Ok(scene)
+}
+
+/// Reads an 8-bit frame as RGB.
+fn read_rgb(path: &Path, width: u32, height: u32) -> anyhow::Result<SrgbImage> {
+    let rgba = runner::stimuli::decode_frame(path, width, height)?;
+    let rgb = rgba.pixels.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+    SrgbImage::new(width, height, rgb).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+}
+
+/// Renders (or finds) every frame of the references `ids` need; returns nothing, the frames
+/// are in `SET/observer/reference/FOLDER/KEY/`.
+pub struct References<'a> {
+    set_dir: &'a Path,
+    design: &'a Design,
+    preset: &'a Preset,
+    settings: &'a ObserverSettings,
+    device: render::DeviceChoice,
+}
+
+impl<'a> References<'a> {
+    /// The references of `settings` for the set in `set_dir`.
+    pub fn new(
+        set_dir: &'a Path,
+        design: &'a Design,
+        preset: &'a Preset,
+        settings: &'a ObserverSettings,
+        device: render::DeviceChoice,
+    ) -> References<'a> {
+        References { set_dir, design, preset, settings, device }
+    }
+
+    fn folder(&self, id: &StimulusId) -> PathBuf {
+        observer_dir(self.set_dir)
+            .join("reference")
+            .join(self.settings.reference_folder())
+            .join(reference_key(id, self.settings.reference))
+    }
+
+    fn frame_path(&self, id: &StimulusId, frame: u32, sub: u32) -> PathBuf {
+        self.folder(id).join(format!("frame-{frame:04}-{sub:02}.png"))
+    }
+
+    /// The frames (frame, sub-frame) of `id`'s reference in display order.
+    fn frames(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        (self.settings.clip.0..self.settings.clip.1).flat_map(|f| (0..self.settings.sub_frames).map(move |s| (f, s)))
+    }
+
+    /// How many reference frames of `ids` are still to render.
+    pub fn missing(&self, ids: &[StimulusId]) -> usize {
+        let mut n = 0;
+        let mut seen = std::collections::BTreeSet::new();
+        for id in ids {
+            if seen.insert(reference_key(id, self.settings.reference)) {
+                n += self.frames().filter(|&(f, s)| !self.frame_path(id, f, s).exists()).count();
+            }
+        }
+        n
+    }
+
+    /// Renders the missing frames of `id`'s reference (each written atomically, so an
+    /// interrupted render resumes at the first missing frame) and returns them all.
+    pub fn load_or_render<'e>(
+        &self,
+        id: &StimulusId,
+        renderer: &mut Option<render::Renderer<'e>>,
+        env: Option<&'e render::env::EnvironmentMap>,
+        progress: &indicatif::ProgressBar,
+    ) -> anyhow::Result<Vec<SrgbImage>> {
+        let eyes = if id.view == View::Stereo { 2 } else { 1 };
+        let (w, h) = (self.preset.width * eyes, self.preset.height);
+        let folder = self.folder(id);
+        std::fs::create_dir_all(&folder).with_context(|| format!("{}: cannot create", folder.display()))?;
+        let method = self.design.method_with(id, Some(study::Method::Tracer)).map_err(|e| BadInput(e.to_string()))?;
+        let mut out = Vec::new();
+        for (frame, sub) in self.frames().collect::<Vec<_>>() {
+            let path = self.frame_path(id, frame, sub);
+            if !path.exists() {
+                let r = match renderer {
+                    Some(r) => r,
+                    None => {
+                        let env = env.ok_or_else(|| {
+                            anyhow::anyhow!(
+                                "{}: a reference frame went missing while the prediction ran",
+                                path.display()
+                            )
+                        })?;
+                        renderer.insert(render::Renderer::open(self.device, env)?)
+                    }
+                };
+                let scene = reference_scene(self.design, self.preset, id, frame, sub, self.settings)?;
+                let rendered = r.render(&method, &scene)?;
+                let rgb = render::io::to_srgb8(&rendered.image, &scene.exposure);
+                let png = render::io::encode_png_rgb8(rendered.image.width, rendered.image.height, &rgb);
+                study::fsio::write_atomic(&path, &png).with_context(|| format!("{}: cannot write", path.display()))?;
+                progress.inc(1);
+                out.push(SrgbImage::new(w, h, rgb).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?);
+            } else {
+                out.push(read_rgb(&path, w, h)?);
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Each stimulus's quality (each eye's JOD) under `settings`, from the cache where it holds
+/// them, else judged (references rendered as needed) and cached one by one.
+pub fn qualities(
+    set: &StimulusSet,
+    design: &Design,
+    preset: &Preset,
+    ids: &[StimulusId],
+    settings: &ObserverSettings,
+    device: render::DeviceChoice,
+) -> anyhow::Result<BTreeMap<StimulusId, Judgement>> {
+    let dir = observer_dir(&set.dir);
+    let cache_path = dir.join(format!("scores-{}.json", settings.key()?));
+    let mut cache = match std::fs::read(&cache_path) {
+        Ok(bytes) => {
+            let c: ScoreCache = serde_json::from_slice(&bytes).with_context(|| {
+                format!("{}: not a score cache ({SCORES_FORMAT}); delete it to recompute", cache_path.display())
+            })?;
+            if c.format != SCORES_FORMAT || c.settings != *settings || c.stimulus_set_sha256 != set.sha256 {
+                // Another set's or setting's scores under a colliding name: start afresh.
+                ScoreCache { scores: BTreeMap::new(), ..c }
+            } else {
+                c
+            }
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => ScoreCache {
+            format: SCORES_FORMAT.into(),
+            stimulus_set_sha256: set.sha256.clone(),
+            settings: settings.clone(),
+            scores: BTreeMap::new(),
+        },
+        Err(e) => return Err(anyhow::Error::new(e).context(format!("{}: cannot read", cache_path.display()))),
+    };
+    cache.format = SCORES_FORMAT.into();
+    cache.settings = settings.clone();
+    cache.stimulus_set_sha256 = set.sha256.clone();
+    let todo: Vec<StimulusId> = ids.iter().filter(|id| !cache.scores.contains_key(&id.to_string())).copied().collect();
+    let references = References::new(&set.dir, design, preset, settings, device);
+    let to_render = references.missing(&todo);
+    let progress = if todo.is_empty() {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new((to_render + todo.len()) as u64).with_style(
+            indicatif::ProgressStyle::with_template(
+                "observer {bar:40} {pos}/{len} reference frames and sequences ({msg}) {elapsed} ETA {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        )
+    };
+    let observer = VideoObserver::new(settings.display(), Threads::Pool).map_err(|e| BadInput(e.to_string()))?;
+    let env = if to_render > 0 {
+        Some(render::env::EnvironmentMap::from_lighting(&design.lighting).map_err(|e| BadInput(e.to_string()))?)
+    } else {
+        None
+    };
+    let mut renderer = None;
+    for id in &todo {
+        progress.set_message(id.to_string());
+        let frames = runner::flip_observer::load_frames(set, id)?;
+        let (first, end) = (settings.clip.0 as usize, settings.clip.1 as usize);
+        if end > frames.images.len() {
+            return Err(BadInput(format!(
+                "--clip {first}..{end}: sequence {id} has {} frames in {}",
+                frames.images.len(),
+                set.dir.display()
+            ))
+            .into());
+        }
+        let reference = references.load_or_render(id, &mut renderer, env.as_ref(), &progress)?;
+        let judgement = observer
+            .judge(
+                &Clip { frames: &frames.images[first..end], fps: settings.fps },
+                &Clip { frames: &reference, fps: settings.fps * f64::from(settings.sub_frames) },
+                frames.eyes,
+            )
+            .with_context(|| format!("judging {id}"))?;
+        cache.scores.insert(id.to_string(), judgement.eyes);
+        std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+        study::fsio::write_atomic(&cache_path, &serde_json::to_vec_pretty(&cache)?)
+            .with_context(|| format!("{}: cannot write", cache_path.display()))?;
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+    Ok(ids
+        .iter()
+        .filter_map(|id| cache.scores.get(&id.to_string()).map(|eyes| (*id, Judgement { eyes: eyes.clone() })))
+        .collect())
+}
+
+/// JOD distances `10 - Q(candidate against reference)` of each `(reference, candidate)` pair,
+/// over the clip (matching trials: the candidate nearer the shown reference is picked).
+pub fn distances(
+    set: &StimulusSet,
+    pairs: &[(StimulusId, StimulusId)],
+    settings: &ObserverSettings,
+) -> anyhow::Result<BTreeMap<(StimulusId, StimulusId), f64>> {
+    let observer = VideoObserver::new(settings.display(), Threads::Pool).map_err(|e| BadInput(e.to_string()))?;
+    let mut frames = BTreeMap::new();
+    let mut out = BTreeMap::new();
+    let (first, end) = (settings.clip.0 as usize, settings.clip.1 as usize);
+    for (r, c) in pairs {
+        for id in [r, c] {
+            if !frames.contains_key(id) {
+                frames.insert(*id, runner::flip_observer::load_frames(set, id)?);
+            }
+        }
+        let (fr, fc) = (&frames[r], &frames[c]);
+        if end > fr.images.len().min(fc.images.len()) {
+            return Err(BadInput(format!("--clip {first}..{end}: {r} or {c} has fewer frames")).into());
+        }
+        let j = observer
+            .judge(
+                &Clip { frames: &fc.images[first..end], fps: settings.fps },
+                &Clip { frames: &fr.images[first..end], fps: settings.fps },
+                fc.eyes,
+            )
+            .with_context(|| format!("judging {c} against {r}"))?;
+        out.insert((*r, *c), 10.0 - j.jod());
+    }
+    Ok(out)
+}

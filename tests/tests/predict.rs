@@ -1,0 +1,116 @@
+//! `blurlab predict` and `blurlab run --simulate cvvdp` through the built binary, on a quick
+//! set of the mono sampling test: the forecast's files and numbers, the cache that lets a
+//! prediction resume, and bad input.
+
+#![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
+
+use std::path::Path;
+
+use blurlab_e2e::{render_quick_set, repo_root, run, shipped_design, stderr};
+
+fn text(p: &Path) -> String {
+    p.to_string_lossy().into_owned()
+}
+
+fn predict(set: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let experiment = text(&repo_root().join("experiments/mono-2-sampling-2afc.toml"));
+    let (set, out) = (text(set), text(out));
+    let args = ["predict", &experiment, "--stimuli", &set, "--device", "cpu", "--out", &out];
+    run(&[&args[..], extra].concat())
+}
+
+#[test]
+fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let set = dir.path().join("set");
+    render_quick_set(&shipped_design(), "M3 S2 T3 *", &set);
+    let table = text(&repo_root().join("analysis/reference/thesis-5.6.3-mono-sampling-2afc.csv"));
+
+    let out = dir.path().join("eye");
+    let o = predict(&set, &out, &["--votes", &table]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in ["predict.md", "predict.json", "votes.csv", "matrix.csv", "groups.png", "predicted-vs-published.svg"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("predict.json")).unwrap()).unwrap();
+    let rows = json["stimuli"].as_array().unwrap();
+    assert_eq!(rows.len(), 5);
+    let score = |label: &str| rows.iter().find(|r| r["label"] == label).unwrap()["score"].as_f64().unwrap();
+    // 1 sample per pixel is far noisier than 16 against any converged reference.
+    assert!(score("A1") < score("A5") - 0.5, "A1 {} A5 {}", score("A1"), score("A5"));
+    assert!(rows.iter().all(|r| r["score"].as_f64().unwrap() <= 10.0 + 1e-6));
+    // The table's 20 judges: the expected votes total 20 judgements of each of 10 pairs.
+    let total: f64 = rows.iter().map(|r| r["votes"].as_f64().unwrap()).sum();
+    assert!((total - 200.0).abs() < 1e-6, "{total}");
+    assert_eq!(json["judges"], 20);
+    let a = &json["agreement"];
+    assert!(a["spearman"].as_f64().unwrap().abs() <= 1.0 && a["adjusted_rand"].is_number(), "{a}");
+
+    // The scores are cached in the set: a second run renders and judges nothing again and
+    // writes the same forecast; a cache with one score removed recomputes it bit for bit.
+    let cache = std::fs::read_dir(set.join("observer"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.file_name().unwrap().to_string_lossy().starts_with("scores-"))
+        .unwrap();
+    let reference_frame = std::fs::read_dir(set.join("observer/reference"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path()
+        .join("M3-S2/frame-0000-00.png");
+    let before = std::fs::metadata(&reference_frame).unwrap().modified().unwrap();
+    let mut scores: serde_json::Value = serde_json::from_slice(&std::fs::read(&cache).unwrap()).unwrap();
+    let kept = scores["scores"]["M3-S2-T3-A2"].clone();
+    scores["scores"].as_object_mut().unwrap().remove("M3-S2-T3-A2");
+    std::fs::write(&cache, serde_json::to_vec(&scores).unwrap()).unwrap();
+    let again = dir.path().join("again");
+    let o = predict(&set, &again, &["--votes", &table]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(out.join("votes.csv")).unwrap(), std::fs::read(again.join("votes.csv")).unwrap());
+    let scores: serde_json::Value = serde_json::from_slice(&std::fs::read(&cache).unwrap()).unwrap();
+    assert_eq!(scores["scores"]["M3-S2-T3-A2"], kept);
+    assert_eq!(std::fs::metadata(&reference_frame).unwrap().modified().unwrap(), before);
+
+    // The other reference and the FLIP baseline run on the same set.
+    let o = predict(&set, &dir.path().join("shutter"), &["--reference", "shutter"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = predict(&set, &dir.path().join("flip"), &["--observer", "flip", "--votes", &table]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // A simulated session with the same model (the runner also shows the briefing's examples).
+    render_quick_set(&shipped_design(), "M2 S3 T1,T5 A5", &set);
+    let experiment = text(&repo_root().join("experiments/mono-2-sampling-2afc.toml"));
+    let results = text(&dir.path().join("results"));
+    let o = run(&[
+        "run",
+        &experiment,
+        "--stimuli",
+        &text(&set),
+        "--participant",
+        "C1",
+        "--results",
+        &results,
+        "--simulate",
+        "cvvdp",
+        "--seed",
+        "4",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    // Bad input, each named.
+    let bad = |extra: &[&str], needle: &str| {
+        let o = predict(&set, &dir.path().join("bad"), extra);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "expected `{needle}` in: {}", stderr(&o));
+    };
+    bad(&["--clip", "0..9"], "frames 0..8");
+    let shutter_table = text(&repo_root().join("analysis/reference/thesis-6.5.2-stereo-shutter.csv"));
+    bad(&["--votes", &shutter_table], "stimulus `T1` is not one of the experiment's");
+    let sparse = dir.path().join("sparse");
+    render_quick_set(&shipped_design(), "M3 S2 T3 A1,A2", &sparse);
+    let o = predict(&sparse, &dir.path().join("bad"), &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("M3-S2-T3-A5"), "{}", stderr(&o));
+}
