@@ -79,6 +79,18 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     let o = predict(&set, &dir.path().join("flip"), &["--observer", "flip", "--votes", &table]);
     assert!(o.status.success(), "{}", stderr(&o));
 
+    // A set with only the counted trials' sequences (the practice pair's M2-S2-T1-A1 absent)
+    // is enough for a forecast by either observer.
+    let interactions = dir.path().join("interactions");
+    render_quick_set(&shipped_design(), "M2 S2 T3-T5 A3-A5", &interactions);
+    let experiment = text(&repo_root().join("experiments/mono-3-interactions.toml"));
+    for observer in ["flip", "cvvdp"] {
+        let out = text(&dir.path().join(format!("interactions-{observer}")));
+        let args = ["predict", &experiment, "--stimuli", &text(&interactions), "--observer", observer, "--out", &out];
+        let o = run(&[&args[..], &["--device", "cpu"]].concat());
+        assert!(o.status.success(), "{observer}: {}", stderr(&o));
+    }
+
     // A simulated session with the same model (the runner also shows the briefing's examples).
     render_quick_set(&shipped_design(), "M2 S3 T1,T5 A5", &set);
     let experiment = text(&repo_root().join("experiments/mono-2-sampling-2afc.toml"));

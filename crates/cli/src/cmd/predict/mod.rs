@@ -296,7 +296,10 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
             (jod, eyes, expected, Some(settings), what)
         }
         ObserverArg::Flip => {
-            let schedule = runner::schedule::build(definition, 0);
+            // The counted trials only: practice pairs need not be in the set.
+            let mut counted = definition.clone();
+            counted.practice.clear();
+            let schedule = runner::schedule::build(&counted, 0);
             let d = runner::flip_observer::distances(&set, &schedule)?;
             let dist: Vec<f64> =
                 ids.iter().map(|id| d.iter().find(|((_, to), _)| to == id).map_or(0.0, |(_, v)| *v)).collect();
