@@ -82,15 +82,17 @@ pub fn load_frames(set: &StimulusSet, id: &StimulusId) -> Result<Frames, RunnerE
     let (folder, m) = open_sequence(set, id)?;
     let mut images = Vec::with_capacity(m.frames.len());
     for f in &m.frames {
-        let path = folder.join(&f.png);
-        let rgba = decode_frame(&path, m.width, m.height)?;
-        let rgb: Vec<u8> = rgba.pixels.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
-        images.push(
-            SrgbImage::new(m.width, m.height, rgb)
-                .map_err(|e| RunnerError::Sequence { path: path.clone(), message: e.to_string() })?,
-        );
+        images.push(read_srgb(&folder.join(&f.png), m.width, m.height)?);
     }
     Ok(Frames { images, eyes: if m.view == View::Stereo { 2 } else { 1 } })
+}
+
+/// An 8-bit PNG frame of `width` x `height` as an RGB image.
+pub fn read_srgb(path: &std::path::Path, width: u32, height: u32) -> Result<SrgbImage, RunnerError> {
+    let rgba = decode_frame(path, width, height)?;
+    let rgb: Vec<u8> = rgba.pixels.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+    SrgbImage::new(width, height, rgb)
+        .map_err(|e| RunnerError::Sequence { path: path.to_owned(), message: e.to_string() })
 }
 
 /// The gold standard of `id` in `set`: the highest sampling level the set's index holds for

@@ -206,7 +206,7 @@ fn cvvdp_forecasts(
             observer: super::predict::ObserverArg::Cvvdp,
             reference: super::predict::observer::ReferenceKind::Eye,
             reference_spp: None,
-            sub_frames: 4,
+            sub_frames: super::predict::observer::DEFAULT_SUB_FRAMES,
             clip: None,
             votes: None,
             judges: Some(p.complete_judges.max(1)),

@@ -210,7 +210,14 @@ fn cvvdp_model(
         }
         study::response::Task::Match => {
             let (set, design, preset) = super::predict::open_set(set_dir, definition, true)?;
-            let settings = ObserverSettings::new(&design, &preset, kind, None, 4, None)?;
+            let settings = ObserverSettings::new(
+                &design,
+                &preset,
+                kind,
+                None,
+                super::predict::observer::DEFAULT_SUB_FRAMES,
+                None,
+            )?;
             let mut pairs: Vec<(study::StimulusId, study::StimulusId)> = runner::schedule::build(definition, seed)
                 .iter()
                 .flat_map(|t| t.options().iter().map(|o| (t.shown[0], *o)).collect::<Vec<_>>())

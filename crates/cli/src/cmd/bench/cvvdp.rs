@@ -69,14 +69,6 @@ fn clip(w: u32, h: u32, frames: u32, noise: f64, seed: u64) -> Vec<SrgbImage> {
         .unwrap_or_default()
 }
 
-/// The peak resident set of this process (`VmHWM`), where the system reports it.
-pub fn peak_resident_bytes() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
-
 /// Runs the benchmark.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let (w, h, n) = (args.width, args.height, args.frames);
@@ -118,7 +110,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         jod,
         cores: rayon::current_num_threads(),
         timings,
-        peak_resident_bytes: peak_resident_bytes(),
+        peak_resident_bytes: runner::bench::memory_kib().map(|(_, peak)| peak * 1024),
     };
     println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())

@@ -70,7 +70,7 @@ pub struct Args {
     #[arg(long)]
     pub reference_spp: Option<u32>,
     /// Sub-frames per displayed frame of the `eye` reference.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = observer::DEFAULT_SUB_FRAMES)]
     pub sub_frames: u32,
     /// The clip judged: frames FIRST..END of the set's sequences (0-based, END excluded;
     /// default: every frame of the set's preset).
@@ -514,7 +514,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     eprintln!(
         "predicted in {:.1} s, peak memory {}",
         started.elapsed().as_secs_f64(),
-        super::bench::cvvdp::peak_resident_bytes().map_or("unknown".into(), |b| format!("{:.0} MB", b as f64 / 1e6))
+        runner::bench::memory_kib()
+            .map_or("unknown".into(), |(_, peak)| format!("{:.0} MB", peak as f64 * 1024.0 / 1e6))
     );
     Ok(())
 }
@@ -529,7 +530,7 @@ pub fn qualities_for(
     device: render::DeviceChoice,
 ) -> anyhow::Result<(BTreeMap<StimulusId, f64>, ObserverSettings)> {
     let (set, design, preset) = open_set(set_dir, definition, true)?;
-    let settings = ObserverSettings::new(&design, &preset, reference, None, 4, clip)?;
+    let settings = ObserverSettings::new(&design, &preset, reference, None, observer::DEFAULT_SUB_FRAMES, clip)?;
     let mut judged = definition.clone();
     judged.briefing.examples.clear();
     let ids: Vec<StimulusId> = judged.all_stimuli().into_iter().collect();

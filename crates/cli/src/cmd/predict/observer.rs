@@ -34,6 +34,9 @@ use crate::cmd::BadInput;
 /// Stream constant of the references' sample seeds.
 const REFERENCE_STREAM: u64 = 0x5EF3_2E9C;
 
+/// Sub-frames per displayed frame of the `eye` reference unless asked otherwise.
+pub const DEFAULT_SUB_FRAMES: u32 = 4;
+
 /// Format tag of the score cache.
 const SCORES_FORMAT: &str = "blurlab-observer-scores/1";
 
@@ -199,13 +202,6 @@ fn reference_scene(
     Ok(scene)
 }
 
-/// Reads an 8-bit frame as RGB.
-fn read_rgb(path: &Path, width: u32, height: u32) -> anyhow::Result<SrgbImage> {
-    let rgba = runner::stimuli::decode_frame(path, width, height)?;
-    let rgb = rgba.pixels.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
-    SrgbImage::new(width, height, rgb).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
-}
-
 /// Renders (or finds) every frame of the references `ids` need; returns nothing, the frames
 /// are in `SET/observer/reference/FOLDER/KEY/`.
 pub struct References<'a> {
@@ -294,7 +290,7 @@ impl<'a> References<'a> {
                 progress.inc(1);
                 out.push(SrgbImage::new(w, h, rgb).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?);
             } else {
-                out.push(read_rgb(&path, w, h)?);
+                out.push(runner::flip_observer::read_srgb(&path, w, h)?);
             }
         }
         Ok(out)
