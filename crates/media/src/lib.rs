@@ -1,0 +1,25 @@
+//! Participating media for blurlab, after Part I of the thesis (Navarro 2011, chapter 2):
+//! the data a medium is made of and the precomputations its renderers share.
+//!
+//! - [`grid`]: a density grid (one per frame), its trilinear lookup and validation;
+//! - [`grid_file`]: the raw grid file format (`blurlab-grid/1`) a user brings grids in;
+//! - [`smoke`]: a seeded, deterministic stable-fluids smoke simulation (Stam 1999, with
+//!   buoyancy and vorticity confinement after Fedkiw et al. 2001) that makes grid sequences;
+//! - [`distance`]: the view-independent distance map (each voxel's distance to the nearest
+//!   non-empty voxel) that lets a ray marcher skip empty space;
+//! - [`constellation`]: an environment map turned into N directional lights by median cut
+//!   (Debevec 2005), energy conserved.
+//!
+//! The crate knows nothing of the scene or of the GPU: the renderer places a grid in the
+//! world and marches it.
+
+pub mod constellation;
+pub mod distance;
+pub mod grid;
+pub mod grid_file;
+pub mod smoke;
+
+pub use constellation::{Constellation, DirectionalLight, LatLongMap};
+pub use distance::DistanceMap;
+pub use grid::{DensityGrid, GridError};
+pub use smoke::{SmokeSettings, SmokeSimulation};
