@@ -8,7 +8,8 @@
 //! - [`distance`]: the view-independent distance map (each voxel's distance to the nearest
 //!   non-empty voxel) that lets a ray marcher skip empty space;
 //! - [`constellation`]: an environment map turned into N directional lights by median cut
-//!   (Debevec 2005), energy conserved.
+//!   (Debevec 2005), energy conserved;
+//! - [`tracking`]: delta and ratio tracking through a grid, for the unbiased reference.
 //!
 //! The crate knows nothing of the scene or of the GPU: the renderer places a grid in the
 //! world and marches it.
@@ -18,8 +19,10 @@ pub mod distance;
 pub mod grid;
 pub mod grid_file;
 pub mod smoke;
+pub mod tracking;
 
 pub use constellation::{Constellation, DirectionalLight, LatLongMap};
 pub use distance::DistanceMap;
 pub use grid::{DensityGrid, GridError};
 pub use smoke::{SmokeSettings, SmokeSimulation};
+pub use tracking::GridMedium;
