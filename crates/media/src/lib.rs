@@ -9,7 +9,9 @@
 //!   non-empty voxel) that lets a ray marcher skip empty space;
 //! - [`constellation`]: an environment map turned into N directional lights by median cut
 //!   (Debevec 2005), energy conserved;
-//! - [`tracking`]: delta and ratio tracking through a grid, for the unbiased reference.
+//! - [`tracking`]: delta and ratio tracking through a grid, for the unbiased reference;
+//! - [`march`]: the thesis's ray marcher (three lighting models, validity mask, distance
+//!   map) in f32, the CPU twin of its WGSL passes.
 //!
 //! The crate knows nothing of the scene or of the GPU: the renderer places a grid in the
 //! world and marches it.
@@ -18,11 +20,13 @@ pub mod constellation;
 pub mod distance;
 pub mod grid;
 pub mod grid_file;
+pub mod march;
 pub mod smoke;
 pub mod tracking;
 
 pub use constellation::{Constellation, DirectionalLight, LatLongMap};
 pub use distance::DistanceMap;
 pub use grid::{DensityGrid, GridError};
+pub use march::{LightingModel, MarchLight, MarchMedium, MarchResult, MarchSettings};
 pub use smoke::{SmokeSettings, SmokeSimulation};
 pub use tracking::GridMedium;

@@ -50,6 +50,9 @@ pub struct SmokeSettings {
     pub source_temperature: f64,
     /// Upward speed the source gives its cells, in cells per unit time.
     pub source_speed: f64,
+    /// Densities below this are written out as zero: the numerical diffusion of advection
+    /// leaves traces everywhere, and exact zeros are what empty-space skipping can skip.
+    pub density_floor: f64,
     /// Pressure solve: stop when the largest divergence left is below this.
     pub pressure_tolerance: f64,
     /// Pressure solve: at most this many conjugate-gradient iterations per step.
@@ -72,6 +75,7 @@ impl Default for SmokeSettings {
             source_density: 1.0,
             source_temperature: 1.0,
             source_speed: 1.0,
+            density_floor: 1e-3,
             pressure_tolerance: 1e-4,
             pressure_iterations: 400,
         }
@@ -115,6 +119,7 @@ impl SmokeSettings {
             ("source_temperature", self.source_temperature),
             ("source_speed", self.source_speed),
             ("pressure_tolerance", self.pressure_tolerance),
+            ("density_floor", self.density_floor),
         ];
         for (key, v) in non_negative {
             if !(v.is_finite() && v >= 0.0) {
@@ -358,9 +363,10 @@ impl SmokeSimulation {
         self.last_solve
     }
 
-    /// The density now, as a grid over the unit box.
+    /// The density now, as a grid over the unit box (values below the floor made zero).
     pub fn density(&self) -> DensityGrid {
-        let data = self.density.data.iter().map(|d| if d.is_finite() { d.max(0.0) } else { 0.0 }).collect();
+        let floor = self.settings.density_floor as f32;
+        let data = self.density.data.iter().map(|d| if d.is_finite() && *d >= floor { *d } else { 0.0 }).collect();
         DensityGrid::from_valid(self.settings.resolution, data)
     }
 
