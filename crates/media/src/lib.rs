@@ -11,13 +11,15 @@
 //!   (Debevec 2005), energy conserved;
 //! - [`tracking`]: delta and ratio tracking through a grid, for the unbiased reference;
 //! - [`march`]: the thesis's ray marcher (three lighting models, validity mask, distance
-//!   map) in f32, the CPU twin of its WGSL passes.
+//!   map) in f32, the CPU twin of its WGSL passes;
+//! - [`gpu`]: those passes on the GPU (`march.wgsl`).
 //!
-//! The crate knows nothing of the scene or of the GPU: the renderer places a grid in the
-//! world and marches it.
+//! The crate knows nothing of the scene: the renderer places a grid in the world, turns its
+//! rays into the cube's frame and composes what the marcher returns with the rest.
 
 pub mod constellation;
 pub mod distance;
+pub mod gpu;
 pub mod grid;
 pub mod grid_file;
 pub mod march;
@@ -27,6 +29,6 @@ pub mod tracking;
 pub use constellation::{Constellation, DirectionalLight, LatLongMap};
 pub use distance::DistanceMap;
 pub use grid::{DensityGrid, GridError};
-pub use march::{LightingModel, MarchLight, MarchMedium, MarchResult, MarchSettings};
+pub use march::{LightingModel, MarchLight, MarchMedium, MarchResult, MarchSettings, PixelCamera};
 pub use smoke::{SmokeSettings, SmokeSimulation};
 pub use tracking::GridMedium;

@@ -28,6 +28,61 @@ use glam::Vec3;
 use crate::distance::{DistanceMap, TENT_REACH};
 use crate::grid::DensityGrid;
 
+/// The cap on distances and skips, in voxels and segments (the WGSL's `NO_LIMIT`).
+pub const NO_LIMIT: f32 = 1e9;
+
+/// A pinhole camera in the cube's frame: pixel `(x, y)` looks from `eye` through
+/// `corner + (x + 0.5) du + (y + 0.5) dv`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PixelCamera {
+    /// The eye.
+    pub eye: Vec3,
+    /// The image plane's corner (pixel (0, 0)'s outer corner).
+    pub corner: Vec3,
+    /// One pixel to the right.
+    pub du: Vec3,
+    /// One pixel down.
+    pub dv: Vec3,
+}
+
+impl PixelCamera {
+    /// A camera at `eye` looking at `target` with vertical field of view `fov_y` (radians)
+    /// over `width x height` pixels, y up.
+    pub fn look_at(eye: Vec3, target: Vec3, fov_y: f32, width: u32, height: u32) -> Self {
+        let forward = (target - eye).normalize();
+        let right = forward.cross(Vec3::Y).normalize();
+        let up = right.cross(forward);
+        let half_h = (0.5 * fov_y).tan();
+        let half_w = half_h * width as f32 / height as f32;
+        let du = right * (2.0 * half_w / width as f32);
+        let dv = -up * (2.0 * half_h / height as f32);
+        let corner = eye + forward - right * half_w + up * half_h;
+        Self { eye, corner, du, dv }
+    }
+
+    /// The unit direction of pixel `(x, y)`, as the WGSL computes it.
+    pub fn ray(&self, x: u32, y: u32) -> Vec3 {
+        let target = self.corner + (x as f32 + 0.5) * self.du + (y as f32 + 0.5) * self.dv;
+        (target - self.eye).normalize()
+    }
+}
+
+/// The marcher over a whole image, row by row in parallel: the CPU twin of the two passes.
+pub fn march_image(
+    medium: &MarchMedium,
+    lights: &[MarchLight],
+    camera: &PixelCamera,
+    (width, height): (u32, u32),
+    settings: &MarchSettings,
+    use_mask: bool,
+) -> Vec<MarchResult> {
+    use rayon::prelude::*;
+    (0..width * height)
+        .into_par_iter()
+        .map(|n| march(medium, lights, camera.eye, camera.ray(n % width, n / width), settings, use_mask))
+        .collect()
+}
+
 /// The lighting models of the thesis's figure 2.3.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LightingModel {
@@ -132,6 +187,7 @@ pub fn cube_interval(origin: Vec3, direction: Vec3) -> Option<(f32, f32)> {
 fn skippable(distance: Option<&DistanceMap>, p: Vec3, step: f32, dims: [usize; 3]) -> u32 {
     let Some(map) = distance else { return 0 };
     let longest = dims[0].max(dims[1]).max(dims[2]) as f32;
+    // the GPU cannot hold infinity: both sides cap the empty distance at NO_LIMIT
     // nearest voxel centre, as DistanceMap::skip does, in f32
     let mut off2 = 0.0f32;
     let mut c = [0usize; 3];
@@ -141,13 +197,10 @@ fn skippable(distance: Option<&DistanceMap>, p: Vec3, step: f32, dims: [usize; 3
         off2 += (g - i) * (g - i);
         c[a] = i as usize;
     }
-    let free_voxels = map.voxel(c[0], c[1], c[2]) - off2.sqrt() - TENT_REACH as f32;
-    if free_voxels.is_infinite() {
-        return u32::MAX;
-    }
+    let free_voxels = map.voxel(c[0], c[1], c[2]).min(NO_LIMIT) - off2.sqrt() - TENT_REACH as f32;
     let free = free_voxels / longest;
     // the next segment's whole extent must lie inside the ball: floor(free / step) - 1
-    ((free / step).floor() - 1.0).max(0.0) as u32
+    ((free / step).floor() - 1.0).clamp(0.0, NO_LIMIT) as u32
 }
 
 /// The segment `i` of a ray clipped to `[enter, exit]`: its midpoint parameter and length.
