@@ -4,8 +4,11 @@
 # one second from the middle of each sequence (the design's `clip` preset, frames 45-74).
 #
 #   bench/observer-tables.sh mono                # phase 1: the two mono tables, both references
+#   bench/observer-tables.sh choose              # the rule: the reference with the higher mean
+#                                                # Spearman over the two mono tables (tie: eye)
 #   bench/observer-tables.sh stereo REFERENCE    # phase 2: the three stereo tables, held out,
 #                                                # with the reference phase 1 chose (eye|shutter)
+#   bench/observer-tables.sh all                 # the three steps in a row
 #
 # The protocol: the reference (and any setting) is chosen on the mono tables only; the stereo
 # tables are then run once with everything frozen. Each step resumes: the clip set verifies
@@ -24,6 +27,7 @@ render() { # VIEWS ONLY
 predict() { # EXPERIMENT TABLE NAME OBSERVER-ARGS...
   local exp=$1 table=$2 name=$3
   shift 3
+  echo "== predict $name ($(date -u +%H:%M:%S))" >&2
   "$BIN" predict "experiments/$exp.toml" --stimuli "$SET" --votes "analysis/reference/$table.csv" \
     --device "$DEVICE" --out "$OUT/$name" "$@"
 }
@@ -38,20 +42,38 @@ case "${1:-}" in
     predict mono-2-sampling-2afc thesis-5.6.3-mono-sampling-2afc 5.6.3-flip --observer flip
     predict mono-3-interactions thesis-5.7.2-mono-interactions 5.7.2-flip --observer flip
     ;;
+  choose)
+    python3 - "$OUT" <<'PY'
+import json, sys
+out = sys.argv[1]
+def rho(name):
+    return json.load(open(f"{out}/{name}/predict.json"))["agreement"]["spearman"]
+mean = {ref: (rho(f"5.6.3-{ref}") + rho(f"5.7.2-{ref}")) / 2 for ref in ("eye", "shutter")}
+for ref, m in mean.items():
+    print(f"{ref}: mean Spearman over the mono tables {m:.3f}", file=sys.stderr)
+print("shutter" if mean["shutter"] > mean["eye"] else "eye")
+PY
+    ;;
   stereo)
     ref=${2:?"name the reference chosen on the mono tables: eye or shutter"}
+    # Table by table, so that an interrupted run leaves whole tables behind.
     render stereo "M3 S2 T3 *"
-    render stereo "M3 S2 * A5"
-    render stereo "M2 S2 T3-T5 A3-A5"
     predict stereo-2-sampling thesis-6.5.2-stereo-sampling "6.5.2-sampling-$ref" --reference "$ref"
-    predict stereo-2-shutter thesis-6.5.2-stereo-shutter "6.5.2-shutter-$ref" --reference "$ref"
-    predict stereo-3-interactions thesis-6.6.2-stereo-interactions "6.6.2-$ref" --reference "$ref"
     predict stereo-2-sampling thesis-6.5.2-stereo-sampling 6.5.2-sampling-flip --observer flip
+    render stereo "M3 S2 * A5"
+    predict stereo-2-shutter thesis-6.5.2-stereo-shutter "6.5.2-shutter-$ref" --reference "$ref"
     predict stereo-2-shutter thesis-6.5.2-stereo-shutter 6.5.2-shutter-flip --observer flip
+    render stereo "M2 S2 T3-T5 A3-A5"
+    predict stereo-3-interactions thesis-6.6.2-stereo-interactions "6.6.2-$ref" --reference "$ref"
     predict stereo-3-interactions thesis-6.6.2-stereo-interactions 6.6.2-flip --observer flip
     ;;
+  all)
+    "$0" mono
+    ref=$("$0" choose)
+    "$0" stereo "$ref"
+    ;;
   *)
-    sed -n '2,14p' "$0"
+    sed -n '2,17p' "$0"
     exit 2
     ;;
 esac
