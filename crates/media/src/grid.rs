@@ -158,6 +158,26 @@ impl DensityGrid {
     }
 }
 
+impl DensityGrid {
+    /// The grid resampled to `dims` voxels by its own trilinear lookup at the new centres
+    /// (a finer or coarser copy of the same field, e.g. a data set's shape from a simulation).
+    pub fn resample(&self, dims: [usize; 3]) -> Result<Self, GridError> {
+        let n = voxel_count(dims)?;
+        let data = (0..n)
+            .map(|v| {
+                let (i, j, k) = (v % dims[0], (v / dims[0]) % dims[1], v / (dims[0] * dims[1]));
+                let p = DVec3::new(
+                    (i as f64 + 0.5) / dims[0] as f64,
+                    (j as f64 + 0.5) / dims[1] as f64,
+                    (k as f64 + 0.5) / dims[2] as f64,
+                );
+                self.density(p) as f32
+            })
+            .collect();
+        Ok(Self::from_valid(dims, data))
+    }
+}
+
 pub(crate) fn voxel_count(dims: [usize; 3]) -> Result<usize, GridError> {
     let [nx, ny, nz] = dims;
     if dims.iter().any(|d| *d == 0 || *d > MAX_DIMENSION) {
@@ -230,6 +250,17 @@ mod tests {
         assert!(matches!(e, GridError::Value { index: 0, .. }));
         assert!(matches!(DensityGrid::new([2, 3, 4], vec![0.0; 23]), Err(GridError::Length { .. })));
         assert!(matches!(DensityGrid::constant([0, 3, 4], 1.0), Err(GridError::Dimensions { .. })));
+    }
+
+    #[test]
+    fn resampling_keeps_a_linear_field_inside() {
+        let g = ramp();
+        let fine = g.resample([8, 6, 10]).unwrap();
+        // away from the clamped border both are the same linear function
+        for p in [DVec3::new(0.4, 0.5, 0.5), DVec3::new(0.6, 0.45, 0.62)] {
+            assert!((fine.density(p) - g.density(p)).abs() < 1e-5, "{p}");
+        }
+        assert_eq!(g.resample(g.dims()).unwrap(), g);
     }
 
     #[test]

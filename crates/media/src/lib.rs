@@ -12,11 +12,13 @@
 //! - [`tracking`]: delta and ratio tracking through a grid, for the unbiased reference;
 //! - [`march`]: the thesis's ray marcher (three lighting models, validity mask, distance
 //!   map) in f32, the CPU twin of its WGSL passes;
-//! - [`gpu`]: those passes on the GPU (`march.wgsl`).
+//! - [`gpu`]: those passes on the GPU (`march.wgsl`);
+//! - [`bench`]: the thesis's Table 2.1 redone (each lighting model and acceleration).
 //!
 //! The crate knows nothing of the scene: the renderer places a grid in the world, turns its
 //! rays into the cube's frame and composes what the marcher returns with the rest.
 
+pub mod bench;
 pub mod constellation;
 pub mod distance;
 pub mod gpu;

@@ -127,6 +127,10 @@ pub struct MarchSettings {
     pub model: LightingModel,
     /// Density at or below which the validity mask counts a sample as empty.
     pub threshold: f32,
+    /// Evaluate the lights (and shadow rays) at segments of zero density too, as the
+    /// thesis's shader does (Listing 2.1 lights every slice and weights by the extinction
+    /// afterwards); `false` tests the density first. The image is the same either way.
+    pub shade_empty: bool,
 }
 
 /// One pixel's result.
@@ -203,6 +207,12 @@ fn skippable(distance: Option<&DistanceMap>, p: Vec3, step: f32, dims: [usize; 3
     ((free / step).floor() - 1.0).clamp(0.0, NO_LIMIT) as u32
 }
 
+/// The segments to skip after a sample of density `rho` at `p`: none inside the medium
+/// (where the map's distance is zero anyway, so its lookup is saved).
+fn skip_from(medium: &MarchMedium, rho: f32, p: Vec3, step: f32) -> u32 {
+    if rho > 0.0 { 0 } else { skippable(medium.distance, p, step, medium.grid.dims()) }
+}
+
 /// The segment `i` of a ray clipped to `[enter, exit]`: its midpoint parameter and length.
 fn segment(i: u32, step: f32, enter: f32, exit: f32) -> Option<(f32, f32)> {
     let a = (i as f32 * step).max(enter);
@@ -225,11 +235,11 @@ pub fn first_segment(
     while let Some((t, _)) = segment(i, step, enter, exit) {
         let p = origin + t * direction;
         *lookups += 1;
-        if density(medium.grid, p) > settings.threshold {
+        let rho = density(medium.grid, p);
+        if rho > settings.threshold {
             return Some(i);
         }
-        let skip = skippable(medium.distance, p, step, medium.grid.dims());
-        i = i.saturating_add(1).saturating_add(skip);
+        i = i.saturating_add(1).saturating_add(skip_from(medium, rho, p, step));
     }
     None
 }
@@ -242,9 +252,9 @@ fn shadow(medium: &MarchMedium, p: Vec3, direction: Vec3, step: f32, lookups: &m
     while let Some((t, l)) = segment(i, step, enter, exit) {
         let q = p + t * direction;
         *lookups += 1;
-        depth += medium.sigma_t * density(medium.grid, q) * l;
-        let skip = skippable(medium.distance, q, step, medium.grid.dims());
-        i = i.saturating_add(1).saturating_add(skip);
+        let rho = density(medium.grid, q);
+        depth += medium.sigma_t * rho * l;
+        i = i.saturating_add(1).saturating_add(skip_from(medium, rho, q, step));
     }
     (-depth).exp()
 }
@@ -274,8 +284,9 @@ pub fn march(
     while let Some((t, l)) = segment(i, step, enter, exit) {
         let p = origin + t * direction;
         result.primary_lookups += 1;
-        let sigma = medium.sigma_t * density(medium.grid, p);
-        if sigma > 0.0 {
+        let rho = density(medium.grid, p);
+        let sigma = medium.sigma_t * rho;
+        if sigma > 0.0 || settings.shade_empty {
             let source = match settings.model {
                 LightingModel::AlphaCompositing => medium.alpha_colour,
                 LightingModel::PrimaryRays => unshadowed,
@@ -293,8 +304,7 @@ pub fn march(
             result.radiance += result.transmittance * (1.0 - tau) * source;
             result.transmittance *= tau;
         }
-        let skip = skippable(medium.distance, p, step, medium.grid.dims());
-        i = i.saturating_add(1).saturating_add(skip);
+        i = i.saturating_add(1).saturating_add(skip_from(medium, rho, p, step));
     }
     result
 }
@@ -323,7 +333,7 @@ mod tests {
         let grid = DensityGrid::constant([8, 8, 8], 0.0).unwrap();
         let m = medium(&grid, 10.0);
         for model in MODELS {
-            let s = MarchSettings { step: 0.01, model, threshold: 0.0 };
+            let s = MarchSettings { step: 0.01, model, threshold: 0.0, shade_empty: false };
             let r = march(&m, &sun(), Vec3::new(-0.5, 0.4, 0.5), Vec3::X, &s, false);
             assert_eq!((r.radiance, r.transmittance), (Vec3::ZERO, 1.0));
             // the mask sees nothing and marches nothing
@@ -348,7 +358,7 @@ mod tests {
                     &light,
                     Vec3::new(-0.25, y, 0.5),
                     Vec3::X,
-                    &MarchSettings { step, model, threshold: 0.0 },
+                    &MarchSettings { step, model, threshold: 0.0, shade_empty: false },
                     false,
                 )
             };
@@ -373,7 +383,7 @@ mod tests {
             &sun(),
             Vec3::new(0.5, 0.5, -1.0),
             Vec3::Z,
-            &MarchSettings { step: 0.1, model: LightingModel::PrimaryRays, threshold: 0.0 },
+            &MarchSettings { step: 0.1, model: LightingModel::PrimaryRays, threshold: 0.0, shade_empty: false },
             true,
         );
         let s: Vec3 = sun().iter().map(|l| l.irradiance).sum::<Vec3>() * (0.9 / (4.0 * std::f32::consts::PI));
@@ -394,7 +404,7 @@ mod tests {
         let skipping = MarchMedium { distance: Some(&map), ..plain };
         let eye = Vec3::new(0.5, 0.5, -1.5);
         for model in MODELS {
-            let s = MarchSettings { step: 1.0 / 64.0, model, threshold: 0.0 };
+            let s = MarchSettings { step: 1.0 / 64.0, model, threshold: 0.0, shade_empty: false };
             let (mut brute_work, mut fast_work, mut lit) = (0u64, 0u64, 0);
             for py in 0..24 {
                 for px in 0..24 {
@@ -403,6 +413,8 @@ mod tests {
                     let brute = march(&plain, &sun(), eye, d, &s, false);
                     let masked = march(&plain, &sun(), eye, d, &s, true);
                     let both = march(&skipping, &sun(), eye, d, &s, true);
+                    let thesis = march(&skipping, &sun(), eye, d, &MarchSettings { shade_empty: true, ..s }, true);
+                    assert_eq!((thesis.radiance, thesis.transmittance), (both.radiance, both.transmittance));
                     assert_eq!((brute.radiance, brute.transmittance), (masked.radiance, masked.transmittance));
                     assert_eq!(
                         (brute.radiance, brute.transmittance),

@@ -29,7 +29,9 @@ fn gpu_marcher_matches_its_cpu_twin() {
         MarchMedium { grid: &grid, distance: None, sigma_t: 25.0, albedo: 0.85, alpha_colour: Vec3::splat(0.6) };
     let skipping = MarchMedium { distance: Some(&map), ..plain };
     for model in [LightingModel::AlphaCompositing, LightingModel::PrimaryRays, LightingModel::PrimaryAndShadowRays] {
-        let settings = MarchSettings { step: 1.0 / 48.0, model, threshold: 0.0 };
+        // the thesis's way (light every segment) for one model, the density test for the others
+        let shade_empty = model == LightingModel::PrimaryAndShadowRays;
+        let settings = MarchSettings { step: 1.0 / 48.0, model, threshold: 0.0, shade_empty };
         for (medium, use_mask) in [(&plain, false), (&plain, true), (&skipping, true)] {
             let what = format!("{model:?}, mask {use_mask}, distance map {}", medium.distance.is_some());
             let volume = marcher.upload(medium);

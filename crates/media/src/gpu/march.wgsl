@@ -19,6 +19,7 @@ struct Params {
     height: u32,
     use_mask: u32,
     use_distance: u32,
+    shade_empty: u32,
 };
 
 struct Light {
@@ -92,6 +93,14 @@ fn skippable(p: vec3<f32>) -> u32 {
     return u32(clamp(floor(free / params.step) - 1.0, 0.0, NO_LIMIT));
 }
 
+// The segments to skip after a sample of density rho at p: none inside the medium.
+fn skip_from(rho: f32, p: vec3<f32>) -> u32 {
+    if (rho > 0.0) {
+        return 0u;
+    }
+    return skippable(p);
+}
+
 // Segment i clipped to [enter, exit]: (midpoint, length); length <= 0 when past the end.
 fn segment(i: u32, enter: f32, exit: f32) -> vec2<f32> {
     let a = max(f32(i) * params.step, enter);
@@ -117,8 +126,9 @@ fn shadow(p: vec3<f32>, direction: vec3<f32>) -> f32 {
             break;
         }
         let q = p + s.x * direction;
-        depth += params.sigma_t * density(q) * s.y;
-        i = i + 1u + skippable(q);
+        let rho = density(q);
+        depth += params.sigma_t * rho * s.y;
+        i = i + 1u + skip_from(rho, q);
     }
     return exp(-depth);
 }
@@ -140,11 +150,12 @@ fn validity_mask(@builtin(global_invocation_id) id: vec3<u32>) {
                 break;
             }
             let p = params.eye + s.x * direction;
-            if (density(p) > params.threshold) {
+            let rho = density(p);
+            if (rho > params.threshold) {
                 first = i32(i);
                 break;
             }
-            i = i + 1u + skippable(p);
+            i = i + 1u + skip_from(rho, p);
         }
     }
     mask[pixel] = first;
@@ -184,8 +195,9 @@ fn march(@builtin(global_invocation_id) id: vec3<u32>) {
             break;
         }
         let p = params.eye + s.x * direction;
-        let sigma = params.sigma_t * density(p);
-        if (sigma > 0.0) {
+        let rho = density(p);
+        let sigma = params.sigma_t * rho;
+        if (sigma > 0.0 || params.shade_empty != 0u) {
             var source = params.alpha_colour;
             if (params.model == MODEL_PRIMARY) {
                 source = unshadowed;
@@ -200,7 +212,7 @@ fn march(@builtin(global_invocation_id) id: vec3<u32>) {
             radiance += transmittance * (1.0 - tau) * source;
             transmittance *= tau;
         }
-        i = i + 1u + skippable(p);
+        i = i + 1u + skip_from(rho, p);
     }
     result[pixel] = vec4<f32>(radiance, transmittance);
 }

@@ -32,6 +32,8 @@ struct Params {
     height: u32,
     use_mask: u32,
     use_distance: u32,
+    shade_empty: u32,
+    _pad: [u32; 3],
 }
 
 #[repr(C)]
@@ -203,6 +205,8 @@ impl GpuMarcher {
             height,
             use_mask: u32::from(use_mask),
             use_distance: u32::from(volume.has_distance),
+            shade_empty: u32::from(settings.shade_empty),
+            _pad: [0; 3],
         };
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("march params"),
