@@ -434,6 +434,71 @@ mod tests {
     }
 
     #[test]
+    fn a_one_voxel_grid_is_a_constant_cube() {
+        let grid = DensityGrid::constant([1, 1, 1], 0.5).unwrap();
+        let m = medium(&grid, 4.0);
+        let s = MarchSettings { step: 0.07, model: LightingModel::PrimaryRays, threshold: 0.0, shade_empty: false };
+        let r = march(&m, &sun(), Vec3::new(0.5, -1.0, 0.5), Vec3::Y, &s, true);
+        assert!((r.transmittance - (-2.0f32).exp()).abs() < 1e-6, "{}", r.transmittance);
+    }
+
+    #[test]
+    fn a_thin_wisp_is_missed_by_long_steps_and_caught_by_short_ones() {
+        // a sheet one voxel thick (of 64) across the ray: a step of several voxels samples
+        // it where it happens to land, a step of a quarter voxel integrates it
+        let n = 64;
+        let data = (0..n * n * n).map(|v| if v % n == 40 { 1.0 } else { 0.0 }).collect();
+        let grid = DensityGrid::new([n, n, n], data).unwrap();
+        let m = medium(&grid, 60.0);
+        let light = [MarchLight { direction: Vec3::Y, irradiance: Vec3::splat(100.0) }];
+        let depth = |step: f32, start: f32| {
+            let s = MarchSettings { step, model: LightingModel::PrimaryRays, threshold: 0.0, shade_empty: false };
+            let r = march(&m, &light, Vec3::new(start, 0.5, 0.5), Vec3::X, &s, false);
+            -r.transmittance.ln()
+        };
+        // the sheet's optical depth: its tent integrates to one voxel's width
+        let exact = 60.0 / n as f32;
+        for start in [-0.013f32, -0.02, -0.031] {
+            assert!((depth(0.25 / n as f32, start) - exact).abs() < 0.02 * exact, "{}", depth(0.25 / n as f32, start));
+        }
+        let coarse: Vec<f32> = [-0.013f32, -0.02, -0.031, -0.04].iter().map(|s| depth(4.0 / n as f32, *s)).collect();
+        let worst = coarse.iter().map(|d| (d - exact).abs() / exact).fold(0.0, f32::max);
+        assert!(worst > 0.5, "four-voxel steps should misjudge the sheet badly somewhere: {coarse:?} vs {exact}");
+    }
+
+    #[test]
+    fn an_empty_hole_is_skipped_and_costs_its_chord() {
+        // a constant cube with a spherical hole of radius 0.3 in the middle
+        let n = 48;
+        let data = (0..n * n * n)
+            .map(|v| {
+                let c = Vec3::new((v % n) as f32, ((v / n) % n) as f32, (v / (n * n)) as f32) + 0.5;
+                if (c / n as f32 - Vec3::splat(0.5)).length() < 0.3 { 0.0 } else { 1.0 }
+            })
+            .collect();
+        let grid = DensityGrid::new([n, n, n], data).unwrap();
+        let map = DistanceMap::new(&grid, 0.0);
+        let plain = medium(&grid, 3.0);
+        let skipping = MarchMedium { distance: Some(&map), ..plain };
+        let s = MarchSettings {
+            step: 0.25 / n as f32,
+            model: LightingModel::PrimaryRays,
+            threshold: 0.0,
+            shade_empty: false,
+        };
+        let brute = march(&plain, &sun(), Vec3::new(-0.5, 0.5, 0.5), Vec3::X, &s, false);
+        let fast = march(&skipping, &sun(), Vec3::new(-0.5, 0.5, 0.5), Vec3::X, &s, true);
+        assert_eq!((brute.radiance, brute.transmittance), (fast.radiance, fast.transmittance));
+        assert!(fast.primary_lookups < brute.primary_lookups, "{} vs {}", fast.primary_lookups, brute.primary_lookups);
+        // through the centre the medium is as long as the voxels that are not hole: the
+        // sphere's chord, 0.6, as the voxels draw it (the four rows around the ray agree)
+        let hole = (0..n).filter(|i| grid.voxel(*i, n / 2, n / 2) == 0.0).count() as f32 / n as f32;
+        assert!((hole - 0.6).abs() < 0.03, "{hole}");
+        let expected = (-3.0 * (1.0 - hole)).exp();
+        assert!((brute.transmittance - expected).abs() < 1e-3 * expected, "{} vs {expected}", brute.transmittance);
+    }
+
+    #[test]
     fn f32_density_agrees_with_the_f64_reference() {
         let mut sim =
             SmokeSimulation::new(SmokeSettings { resolution: [8, 12, 8], ..SmokeSettings::default() }).unwrap();
