@@ -35,6 +35,9 @@ pub enum GridError {
         /// Values found.
         found: usize,
     },
+    /// A sequence without a grid.
+    #[error("a grid sequence needs at least one grid")]
+    EmptySequence,
     /// Two grids of one sequence differ in size.
     #[error("grids of {a:?} and {b:?} voxels cannot be interpolated: a sequence keeps one size")]
     Mismatch {

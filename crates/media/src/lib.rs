@@ -9,7 +9,12 @@
 //!   non-empty voxel) that lets a ray marcher skip empty space;
 //! - [`constellation`]: an environment map turned into N directional lights by median cut
 //!   (Debevec 2005), energy conserved;
-//! - [`tracking`]: delta and ratio tracking through a grid, for the unbiased reference;
+//! - [`tracking`]: delta and ratio tracking through a grid (or any [`Medium`]), for the
+//!   unbiased reference;
+//! - [`scatter`]: the reference's light transport in a medium (single or multiple
+//!   scattering under a sky, next-event estimated);
+//! - [`shutter`]: motion blur of a medium (grids interpolated in time; the reference's
+//!   blended lookups, the marcher's accumulation buffer over sub-frames);
 //! - [`march`]: the thesis's ray marcher (three lighting models, validity mask, distance
 //!   map) in f32, the CPU twin of its WGSL passes;
 //! - [`gpu`]: those passes on the GPU (`march.wgsl`);
@@ -25,6 +30,8 @@ pub mod gpu;
 pub mod grid;
 pub mod grid_file;
 pub mod march;
+pub mod scatter;
+pub mod shutter;
 pub mod smoke;
 pub mod tracking;
 
@@ -33,4 +40,4 @@ pub use distance::DistanceMap;
 pub use grid::{DensityGrid, GridError};
 pub use march::{LightingModel, MarchLight, MarchMedium, MarchResult, MarchSettings, PixelCamera};
 pub use smoke::{SmokeSettings, SmokeSimulation};
-pub use tracking::GridMedium;
+pub use tracking::{ConstantSphere, GridMedium, Medium};

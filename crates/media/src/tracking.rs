@@ -4,6 +4,9 @@
 //! in the unit cube's coordinates; [`GridMedium::sigma_t`] is the extinction per unit of
 //! that length at density 1, so the renderer scales it when it places the cube in the world.
 //!
+//! The estimators are written once for any [`Medium`]: the grid, and a constant sphere whose
+//! closed forms check them.
+//!
 //! The random numbers come from the caller (`uniform` returns values in [0, 1)), so the
 //! tracer's own seeded sampler drives them and frames stay reproducible.
 
@@ -35,28 +38,34 @@ pub fn unit_cube_interval(origin: DVec3, direction: DVec3) -> Option<(f64, f64)>
     (exit > enter).then_some((enter, exit))
 }
 
-impl GridMedium<'_> {
+/// What the estimators need of a medium: where a ray is inside it, its extinction at a
+/// point, a majorant of that extinction, and its albedo. The grid is the medium blurlab
+/// renders; an analytic one (a constant sphere, [`ConstantSphere`]) checks the estimators
+/// against closed forms.
+pub trait Medium {
+    /// The parametric interval (`t >= 0`) of a ray inside the medium's bounds, if any.
+    fn interval(&self, origin: DVec3, direction: DVec3) -> Option<(f64, f64)>;
     /// The extinction coefficient at `p`.
-    pub fn extinction(&self, p: DVec3) -> f64 {
-        self.sigma_t * self.grid.density(p)
-    }
-
-    /// The global majorant: extinction at the largest density.
-    pub fn majorant(&self) -> f64 {
-        self.sigma_t * f64::from(self.grid.max_density())
-    }
+    fn extinction(&self, p: DVec3) -> f64;
+    /// An upper bound of the extinction everywhere in the bounds.
+    fn majorant(&self) -> f64;
+    /// Single-scattering albedo in [0, 1].
+    fn albedo(&self) -> f64;
 
     /// Delta tracking: the distance of the first real collision along the ray within
     /// `[0, t_max]`, or `None` if the ray leaves the interval unscattered.
-    pub fn sample_collision(
+    fn sample_collision(
         &self,
         origin: DVec3,
         direction: DVec3,
         t_max: f64,
         uniform: &mut impl FnMut() -> f64,
-    ) -> Option<f64> {
+    ) -> Option<f64>
+    where
+        Self: Sized,
+    {
         let mu = self.majorant();
-        let (enter, exit) = unit_cube_interval(origin, direction)?;
+        let (enter, exit) = self.interval(origin, direction)?;
         let exit = exit.min(t_max);
         if mu <= 0.0 || enter >= exit {
             return None;
@@ -74,9 +83,12 @@ impl GridMedium<'_> {
     }
 
     /// Ratio tracking: an unbiased estimate of the transmittance over `[0, t_max]`.
-    pub fn transmittance(&self, origin: DVec3, direction: DVec3, t_max: f64, uniform: &mut impl FnMut() -> f64) -> f64 {
+    fn transmittance(&self, origin: DVec3, direction: DVec3, t_max: f64, uniform: &mut impl FnMut() -> f64) -> f64
+    where
+        Self: Sized,
+    {
         let mu = self.majorant();
-        let Some((enter, exit)) = unit_cube_interval(origin, direction) else {
+        let Some((enter, exit)) = self.interval(origin, direction) else {
             return 1.0;
         };
         let exit = exit.min(t_max);
@@ -95,11 +107,72 @@ impl GridMedium<'_> {
             }
         }
     }
+}
 
+impl Medium for GridMedium<'_> {
+    fn interval(&self, origin: DVec3, direction: DVec3) -> Option<(f64, f64)> {
+        unit_cube_interval(origin, direction)
+    }
+
+    fn extinction(&self, p: DVec3) -> f64 {
+        self.sigma_t * self.grid.density(p)
+    }
+
+    fn majorant(&self) -> f64 {
+        self.sigma_t * f64::from(self.grid.max_density())
+    }
+
+    fn albedo(&self) -> f64 {
+        self.albedo
+    }
+}
+
+/// A sphere of constant extinction: the analytic medium of the closed-form checks.
+#[derive(Debug, Clone, Copy)]
+pub struct ConstantSphere {
+    /// Centre.
+    pub centre: DVec3,
+    /// Radius.
+    pub radius: f64,
+    /// Extinction inside.
+    pub sigma_t: f64,
+    /// Single-scattering albedo.
+    pub albedo: f64,
+}
+
+impl Medium for ConstantSphere {
+    fn interval(&self, origin: DVec3, direction: DVec3) -> Option<(f64, f64)> {
+        let d = direction.normalize();
+        let scale = direction.length();
+        let oc = origin - self.centre;
+        let b = oc.dot(d);
+        let disc = b * b - (oc.length_squared() - self.radius * self.radius);
+        if disc <= 0.0 {
+            return None;
+        }
+        let root = disc.sqrt();
+        let (near, far) = (-b - root, -b + root);
+        (far > 0.0).then(|| (near.max(0.0) / scale, far / scale))
+    }
+
+    fn extinction(&self, p: DVec3) -> f64 {
+        if (p - self.centre).length_squared() <= self.radius * self.radius { self.sigma_t } else { 0.0 }
+    }
+
+    fn majorant(&self) -> f64 {
+        self.sigma_t
+    }
+
+    fn albedo(&self) -> f64 {
+        self.albedo
+    }
+}
+
+impl GridMedium<'_> {
     /// The optical depth over `[0, t_max]` by the midpoint rule with `steps` steps: a
     /// deterministic check for the estimators, not for rendering.
     pub fn optical_depth(&self, origin: DVec3, direction: DVec3, t_max: f64, steps: usize) -> f64 {
-        let Some((enter, exit)) = unit_cube_interval(origin, direction) else {
+        let Some((enter, exit)) = self.interval(origin, direction) else {
             return 0.0;
         };
         let exit = exit.min(t_max);
