@@ -3,7 +3,8 @@
 # post-process filters' (`bench filters --device gpu`: ms per 1280x720 frame at N = 35),
 # morphological antialiasing's (`bench mlaa --device gpu`: ms per 1280x720 frame), the
 # analytic rasterizer's (`bench analytic --gpu`: its WGSL kernel and the CPU rasterizer on
-# the same 640x360 frame at 8 intervals per pixel, 1 and 4 lighting samples), then
+# the same 640x360 frame at 8 intervals per pixel, 1 and 4 lighting samples), the
+# participating-media marcher's (`bench media`: the thesis's Table 2.1 at 512x512), then
 # a timed slice of the full study set (all five sample levels of M3-S3-T5, mono and stereo,
 # 120 frames each, PNGs written), rendered once independently and once with --nested.
 # Then the cost-of-accuracy sweep (`blurlab cost --device gpu`, into $OUT/cost/).
@@ -70,6 +71,9 @@ log "analytic rasterizer (bench analytic --gpu: 640x360, 8 intervals, 1 and 4 li
 "$bin" bench analytic --gpu --json --lighting-samples 4 --rounds "$rounds" >"$out/analytic-4.json"
 "$bin" bench analytic --gpu --json --lighting-samples 1 --supersampling 4 --rounds "$rounds" >"$out/analytic-4x4.json"
 
+log "participating media (bench media: Table 2.1 at 512x512, 16 lights, both data shapes; GPU only, the CPU twin is timed on lavapipe runs)"
+"$bin" bench media --device gpu --json --cpu false --rounds "$((rounds * 10))" >"$out/media.json"
+
 calc() { awk "BEGIN { printf \"%.3f\", $1 }"; }
 
 # The slice is one of the design's 45 (material, speed, shutter) cells with all its levels
@@ -107,6 +111,7 @@ cat <<EOF | tee "$out/result.json"
   "analytic_1_lighting_sample": $(cat "$out/analytic-1.json"),
   "analytic_4_lighting_samples": $(cat "$out/analytic-4.json"),
   "analytic_4x4_points_1_lighting_sample": $(cat "$out/analytic-4x4.json"),
+  "media_table_2_1": $(cat "$out/media.json"),
   "slice": {
     "sequences": "M3-S3-T5, levels A1-A5, mono and stereo, every frame, PNGs written",
     "note": "full_set_bound_minutes: 45 cells times this one, the most expensive",

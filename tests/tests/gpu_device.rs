@@ -177,3 +177,57 @@ fn a_successful_command_without_a_session_prints_no_error_line() {
         assert!(alarms.is_empty(), "--device {device}: {alarms:?}");
     }
 }
+
+#[test]
+fn the_media_benchmark_redoes_table_2_1_on_the_gpu_beside_its_twin() {
+    let o = blurlab_e2e::run(&[
+        "bench",
+        "media",
+        "--device",
+        "gpu",
+        "--json",
+        "--size",
+        "24",
+        "--lights",
+        "4",
+        "--sim-resolution",
+        "12",
+        "--sim-steps",
+        "8",
+        "--rounds",
+        "1",
+    ]);
+    if !o.status.success() && stderr(&o).contains("no GPU adapter") {
+        gpu::skip_or_fail("the_media_benchmark_redoes_table_2_1_on_the_gpu_beside_its_twin", &stderr(&o));
+        return;
+    }
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: serde_json::Value = serde_json::from_str(&blurlab_e2e::stdout(&o)).unwrap();
+    assert_eq!(r["benchmark"], "media");
+    assert!(r["adapter"].as_str().is_some_and(|n| !n.is_empty()));
+    assert!(r["box_coverage"].as_f64().is_some_and(|c| (0.3..0.7).contains(&c)));
+    let rows = r["rows"].as_array().unwrap();
+    // two data shapes x three lighting models x three accelerations
+    assert_eq!(rows.len(), 18);
+    for case in rows.chunks(3) {
+        assert_eq!(case[0]["acceleration"], "brute force");
+        assert_eq!(case[2]["acceleration"], "mask + distance");
+        assert_eq!(case[0]["gpu_speedup"].as_f64(), Some(1.0));
+        for row in case {
+            assert!(row["gpu_ms"].as_f64().is_some_and(|v| v > 0.0), "{row}");
+            assert!(row["cpu_ms"].as_f64().is_some_and(|v| v > 0.0), "{row}");
+            // the accelerations change the work, never which pixels hold smoke
+            assert_eq!(row["pixels_with_medium"], case[0]["pixels_with_medium"]);
+        }
+        let lookups = |i: usize| case[i]["density_lookups"].as_u64().unwrap();
+        assert!(lookups(2) < lookups(0), "{case:?}");
+    }
+    assert_eq!(r["memory"]["grid_and_distance_map_bytes_128"].as_u64(), Some(8 * 128 * 128 * 128));
+}
+
+#[test]
+fn the_media_benchmark_refuses_a_step_it_cannot_march() {
+    let o = blurlab_e2e::run(&["bench", "media", "--device", "cpu", "--step-voxels", "0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--step-voxels 0: expected a length in (0, 64]"), "{}", stderr(&o));
+}

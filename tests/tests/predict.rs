@@ -120,6 +120,18 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     bad(&["--clip", "0..9"], "frames 0..8");
     let shutter_table = text(&repo_root().join("analysis/reference/thesis-6.5.2-stereo-shutter.csv"));
     bad(&["--votes", &shutter_table], "stimulus `T1` is not one of the experiment's");
+    // A matching experiment is answered by `run --simulate cvvdp`, not forecast as votes.
+    let matching = text(&repo_root().join("experiments/mono-2-sampling-matching.toml"));
+    let args =
+        ["predict", &matching, "--stimuli", &text(&set), "--device", "cpu", "--out", &text(&dir.path().join("bad"))];
+    let o = run(&args);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("mono-2-sampling-matching.toml: a match experiment; `predict` forecasts 2AFC"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.path().join("bad").join("predict.md").exists());
     let sparse = dir.path().join("sparse");
     render_quick_set(&shipped_design(), "M3 S2 T3 A1,A2", &sparse);
     let o = predict(&sparse, &dir.path().join("bad"), &[]);

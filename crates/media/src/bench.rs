@@ -10,8 +10,9 @@ use glam::Vec3;
 
 use crate::distance::DistanceMap;
 use crate::gpu::GpuMarcher;
-use crate::grid::DensityGrid;
+use crate::grid::{DensityGrid, GridError};
 use crate::march::{LightingModel, MarchLight, MarchMedium, MarchSettings, PixelCamera, march_image};
+use crate::smoke::{SettingError, SmokeSettings, SmokeSimulation};
 
 /// Which of the thesis's accelerations are on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -81,12 +82,40 @@ pub struct BenchRow {
     pub cpu_seconds: Option<f64>,
     /// Fastest GPU seconds per frame.
     pub gpu_seconds: Option<f64>,
+    /// The clock the GPU's time was read from.
+    pub gpu_clock: Option<gpu::TimingSource>,
     /// Density lookups on primary rays and in the mask.
     pub primary_lookups: u64,
     /// Density lookups on shadow rays.
     pub shadow_lookups: u64,
     /// Pixels whose ray meets density.
     pub pixels_with_medium: u64,
+}
+
+/// Why the table's data sets cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum DataSetError {
+    /// The simulation refused its settings.
+    #[error("smoke simulation: {0}")]
+    Smoke(#[from] SettingError),
+    /// The plume could not be resampled.
+    #[error("resampling the plume: {0}")]
+    Grid(#[from] GridError),
+}
+
+/// The table's two data sets from one simulated plume: `resolution`^3 cells run for `steps`
+/// steps, resampled to the thesis's two shapes, 128x128x128 (its simulated data set ii) and
+/// 256x256x64 (the shape of its scanned data set i).
+pub fn table_data_sets(resolution: usize, steps: u32) -> Result<Vec<(String, DensityGrid)>, DataSetError> {
+    let mut sim = SmokeSimulation::new(SmokeSettings { resolution: [resolution; 3], ..SmokeSettings::default() })?;
+    for _ in 0..steps {
+        sim.step();
+    }
+    let plume = sim.density();
+    Ok(vec![
+        ("ii 128x128x128".to_string(), plume.resample([128, 128, 128])?),
+        ("i-shape 256x256x64".to_string(), plume.resample([256, 256, 64])?),
+    ])
 }
 
 /// The camera of the table: the box's centre from the front, covering about half the image.
@@ -147,12 +176,14 @@ pub fn run(
                     pixels = march_image(medium, &setup.lights, &camera, setup.size, &settings, use_mask);
                 }
                 let mut gpu_best = None;
+                let mut gpu_clock = None;
                 if let (Some(g), Some(v)) = (gpu, volume) {
                     // one warm-up run compiles and uploads what the driver defers
                     g.render(v, medium, &setup.lights, &camera, setup.size, &settings, use_mask)?;
                     for _ in 0..setup.rounds.max(1) {
                         let r = g.render(v, medium, &setup.lights, &camera, setup.size, &settings, use_mask)?;
                         gpu_best = Some(gpu_best.map_or(r.seconds, |b: f64| b.min(r.seconds)));
+                        gpu_clock = Some(r.timing_source);
                     }
                 }
                 let row = BenchRow {
@@ -161,6 +192,7 @@ pub fn run(
                     acceleration,
                     cpu_seconds: setup.cpu.then_some(cpu_best),
                     gpu_seconds: gpu_best,
+                    gpu_clock,
                     primary_lookups: pixels.iter().map(|p| u64::from(p.primary_lookups)).sum(),
                     shadow_lookups: pixels.iter().map(|p| u64::from(p.shadow_lookups)).sum(),
                     pixels_with_medium: pixels.iter().filter(|p| p.transmittance < 1.0).count() as u64,

@@ -6,6 +6,7 @@ pub mod analytic_accuracy;
 pub mod antialiasing;
 pub mod cvvdp;
 pub mod filters;
+pub mod media;
 pub mod methods;
 pub mod mlaa;
 pub mod playback;
@@ -83,6 +84,8 @@ enum Which {
     Antialiasing(antialiasing::Args),
     /// ColorVideoVDP frames per second at 640x360, one thread and every core; peak memory.
     Cvvdp(cvvdp::Args),
+    /// Frames per second of the participating-media marcher: Table 2.1 (GPU and CPU twin).
+    Media(media::Args),
     /// Analysis speed: grouping, bootstrap scaling, W quantiles.
     Analysis(analysis::Args),
     /// Active pair selection (ASAP) against complete and random designs: accuracy per trial, selection time.
@@ -104,6 +107,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Which::Mlaa(a) => mlaa::run(a),
         Which::Antialiasing(a) => antialiasing::run(a),
         Which::Cvvdp(a) => cvvdp::run(a),
+        Which::Media(a) => media::run(a),
         Which::Analysis(a) => analysis::run(a),
         Which::Selection(a) => selection::run(a),
         Which::Playback(a) => playback::run(a),

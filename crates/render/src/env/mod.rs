@@ -25,6 +25,7 @@
 use std::path::PathBuf;
 
 mod cdf16;
+mod constellation;
 mod distribution;
 mod load;
 mod procedural;
