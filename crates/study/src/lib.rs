@@ -16,7 +16,6 @@ pub mod scene;
 pub mod seed;
 pub mod select;
 pub mod stats;
-#[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod toml_locate;
 

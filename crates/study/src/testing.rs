@@ -1,6 +1,8 @@
-//! Test fixtures shared by the crates' tests (the `testing` feature, which the other crates
-//! enable in their dev-dependencies): the text of an experiment definition, written from
-//! one base so that every test states only what it changes.
+//! Test fixtures shared by the crates' tests: the text of an experiment definition, written
+//! from one base so that every test states only what it changes. The module is always
+//! compiled (it is small): behind a cargo feature, `cargo test --workspace` and the e2e
+//! tests' `cargo build -p blurlab` resolved different features for this crate and so
+//! compiled the renderer and everything above it twice.
 //!
 //! [`ExperimentToml::base`] is a complete definition using every table;
 //! [`ExperimentToml::minimal`] is the same with the optional tables left out. A test
