@@ -8,7 +8,8 @@
 //! `env` loads, generates and importance-samples environment maps; `io` turns linear
 //! radiance into PNG/EXR files; `numeric` holds the robust numerics every method shares;
 //! `measure` measures the methods (cost, accuracy, benchmarks); `antialias` filters a
-//! finished display frame (morphological antialiasing). Whole sets (folders,
+//! finished display frame (morphological antialiasing); `volume` makes a scene's
+//! participating medium (its grids, placed in the world). Whole sets (folders,
 //! manifests, resume, shards) are the `sets` crate's.
 
 pub mod antialias;
@@ -20,6 +21,7 @@ pub mod methods;
 pub mod numeric;
 pub mod renderer;
 pub mod shading;
+pub mod volume;
 
 pub use method::{RenderError, RenderedFrame, render_frame};
 pub use renderer::{DeviceChoice, Renderer};

@@ -273,6 +273,13 @@ impl<'env> Renderer<'env> {
         scene: &FrameScene,
         checkpoints: &[u32],
     ) -> Result<Submitted<'_>, RenderError> {
+        if scene.medium.is_some() && !matches!(method.kind(), study::Method::Tracer | study::Method::Accum) {
+            return Err(RenderError::Scene(format!(
+                "the scene has a participating medium (the design's [medium]); the `{}` method does not render \
+                 media: only the tracer and the accumulation buffer do, on --device cpu-reference",
+                method.kind()
+            )));
+        }
         if !crate::methods::nests(method.kind()) && checkpoints.iter().any(|&k| k > 0 && k < scene.samples_per_pixel) {
             return Err(RenderError::NotNested(method.kind()));
         }

@@ -462,7 +462,7 @@ fn whole_frames_approach_the_tracer_reference_as_the_budget_grows() {
     let mut s = study_scene(64, 36, 1024);
     s.views[0].camera.sensor_width /= 4.0;
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
-    let reference = render::methods::tracer::render_frame(&s, &env).eyes.remove(0);
+    let reference = render::methods::tracer::render_frame(&s, &env).unwrap().eyes.remove(0);
     let mut errors = Vec::new();
     for intervals in [4, 6, 8, 10, 16, 64] {
         let params = AnalyticParams { intervals, tessellation: 64, lighting_samples: Some(256), supersampling: 1 };
@@ -778,7 +778,7 @@ fn the_contact_shadows_error_is_the_methods_measured_limit_and_grows_with_speed(
             (v.camera.width, v.camera.height) = (96, 54);
         }
         let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
-        let traced = render::methods::tracer::render_frame(&s, &env);
+        let traced = render::methods::tracer::render_frame(&s, &env).unwrap();
         let raster = render_frame(&s, &env, &accuracy::SHADOW_PARAMS).unwrap();
         accuracy::contact_shadow_error(&s, speed, &traced.eyes[0], &raster.eyes[0])
     };

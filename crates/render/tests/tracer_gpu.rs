@@ -90,7 +90,7 @@ fn assert_agrees_with_f64(gpu: &GpuTracer, s: &FrameScene, what: &str) {
     let genv = gpu.environment(&env).unwrap();
     let g = gpu.render_frame(s, &genv).unwrap();
     assert_eq!(g.nonfinite_samples, 0, "{what}: NaN or infinite samples on the GPU");
-    assert_noise_apart(&g.eyes, &render::methods::tracer::render_frame(s, &env).eyes, what);
+    assert_noise_apart(&g.eyes, &render::methods::tracer::render_frame(s, &env).unwrap().eyes, what);
 }
 
 #[test]

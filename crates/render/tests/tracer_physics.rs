@@ -21,7 +21,7 @@ use study::stats::correlation;
 
 fn render(scene: &FrameScene) -> Vec<LinearImage> {
     let env = EnvironmentMap::from_lighting(&scene.lighting).unwrap();
-    let out = render_frame(scene, &env);
+    let out = render_frame(scene, &env).unwrap();
     assert_eq!(out.nonfinite_samples, 0);
     out.eyes
 }
@@ -451,7 +451,7 @@ fn hard_cases_stay_finite() {
     s.sphere.velocity = DVec3::new(1.0, 0.0, 0.0);
     s.shutter = Shutter { open: 0.0, close: 1.0 / 30.0 };
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
-    let out = render_frame(&s, &env);
+    let out = render_frame(&s, &env).unwrap();
     assert_eq!(out.nonfinite_samples, 0);
     assert!(out.eyes[0].pixels.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
     assert_eq!(out.camera_samples, 48 * 27 * 8);
@@ -459,7 +459,7 @@ fn hard_cases_stay_finite() {
     for t in [s.shutter.open, s.shutter.close, s.shutter.time_at(0.0), s.shutter.time_at(1.0)] {
         let mut f = s.clone();
         f.shutter = Shutter { open: t, close: t };
-        let out = render_frame(&f, &env);
+        let out = render_frame(&f, &env).unwrap();
         assert_eq!(out.nonfinite_samples, 0);
         assert!(out.eyes[0].pixels.iter().all(|p| p.iter().all(|c| c.is_finite())));
     }
@@ -471,13 +471,13 @@ fn nested_levels_are_each_sample_count_rendered_alone() {
     s.sphere.velocity = DVec3::new(1.5, 0.0, 0.0);
     s.shutter = Shutter { open: 0.0, close: 1.0 / 30.0 };
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
-    let levels = render::methods::tracer::render_frame_nested(&s, &env, &[5, 1, 5, 40, 0]);
+    let levels = render::methods::tracer::render_frame_nested(&s, &env, &[5, 1, 5, 40, 0]).unwrap();
     let counts: Vec<u64> = levels.iter().map(|l| l.camera_samples).collect();
     assert_eq!(counts, [24 * 16, 24 * 16 * 5, 24 * 16 * 12]);
     for (level, spp) in levels.iter().zip([1, 5, 12]) {
         let mut alone = s.clone();
         alone.samples_per_pixel = spp;
-        assert_eq!(level.eyes, render_frame(&alone, &env).eyes, "{spp} spp");
+        assert_eq!(level.eyes, render_frame(&alone, &env).unwrap().eyes, "{spp} spp");
     }
 }
 

@@ -109,7 +109,7 @@ fn assert_agrees_with_f64(s: &FrameScene, what: &str) {
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let w = wide::render_frame(s, &EnvTables::new(&env)).unwrap();
     assert_eq!(w.nonfinite_samples, 0, "{what}: NaN or infinite samples");
-    assert_noise_apart(&w.eyes, &render::methods::tracer::render_frame(s, &env).eyes, what);
+    assert_noise_apart(&w.eyes, &render::methods::tracer::render_frame(s, &env).unwrap().eyes, what);
 }
 
 #[test]

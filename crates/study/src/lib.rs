@@ -10,6 +10,7 @@ pub mod fsio;
 pub mod ids;
 pub mod lock;
 pub mod manifest;
+pub mod medium;
 pub mod method;
 pub mod response;
 pub mod scene;

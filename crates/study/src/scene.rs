@@ -436,12 +436,17 @@ pub struct FrameScene {
     pub integrator: Integrator,
     /// Display mapping.
     pub exposure: Exposure,
+    /// A participating medium (`None`: the scene has none and no volume code runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub medium: Option<crate::medium::SceneMedium>,
 }
 
 impl FrameScene {
-    /// Whether anything moves while the shutter is open, i.e. whether time must be sampled.
+    /// Whether anything moves while the shutter is open, i.e. whether time must be sampled:
+    /// the sphere, or a medium whose grids change.
     pub fn needs_time_sampling(&self) -> bool {
-        self.shutter.is_open_interval() && self.sphere.speed() > 0.0
+        self.shutter.is_open_interval()
+            && (self.sphere.speed() > 0.0 || self.medium.as_ref().is_some_and(|m| m.is_animated()))
     }
 
     /// This frame with an instantaneous shutter at time `t` (what the tracer renders for one

@@ -160,7 +160,7 @@ fn the_work_of_one_frame_is_bounded() {
 
 #[test]
 fn every_shipped_design_validates() {
-    for name in ["navarro2011.toml", "methods.toml"] {
+    for name in ["navarro2011.toml", "methods.toml", "antialiasing.toml", "media.toml"] {
         let d = Design::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli").join(name)).unwrap();
         for preset in ["full", "quick"] {
             d.preset(preset).unwrap();

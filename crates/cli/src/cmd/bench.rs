@@ -7,6 +7,7 @@ pub mod antialiasing;
 pub mod cvvdp;
 pub mod filters;
 pub mod media;
+pub mod media_reference;
 pub mod methods;
 pub mod mlaa;
 pub mod playback;
@@ -86,6 +87,8 @@ enum Which {
     Cvvdp(cvvdp::Args),
     /// Frames per second of the participating-media marcher: Table 2.1 (GPU and CPU twin).
     Media(media::Args),
+    /// The reference tracer with a participating medium beside Mitsuba 3's volpath: agreement and speed.
+    MediaReference(media_reference::Args),
     /// Analysis speed: grouping, bootstrap scaling, W quantiles.
     Analysis(analysis::Args),
     /// Active pair selection (ASAP) against complete and random designs: accuracy per trial, selection time.
@@ -108,6 +111,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Which::Antialiasing(a) => antialiasing::run(a),
         Which::Cvvdp(a) => cvvdp::run(a),
         Which::Media(a) => media::run(a),
+        Which::MediaReference(a) => media_reference::run(a),
         Which::Analysis(a) => analysis::run(a),
         Which::Selection(a) => selection::run(a),
         Which::Playback(a) => playback::run(a),

@@ -233,9 +233,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
 }
 
-/// Loads a design file; its errors are bad input.
+/// Loads a design file; its errors are bad input, its warnings go to stderr.
 pub fn load_design(path: &Path) -> anyhow::Result<Design> {
-    Design::load(path).map_err(design_error)
+    let design = Design::load(path).map_err(design_error)?;
+    for w in design.warnings() {
+        eprintln!("warning: {w}");
+    }
+    Ok(design)
 }
 
 /// Marks a design error as bad input (exit code 2).

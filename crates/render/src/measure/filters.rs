@@ -48,6 +48,9 @@ pub enum FilterTimingError {
     /// A filter failed.
     #[error(transparent)]
     Filter(#[from] crate::methods::post_process::FilterError),
+    /// The design's medium could not be made.
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
 }
 
 /// The benchmark frame's G-buffer at `width` x `height` (radiance traced at 1 sample per pixel
@@ -60,7 +63,7 @@ pub fn benchmark_gbuffer(design: &Design, width: u32, height: u32) -> Result<GBu
     }
     let env = crate::env::EnvironmentMap::from_lighting(&scene.lighting)?;
     let centre = scene.at_instant(scene.shutter.centre());
-    let eyes = crate::methods::tracer::render_frame(&centre, &env).eyes;
+    let eyes = crate::methods::tracer::render_frame(&centre, &env)?.eyes;
     Ok(gbuffers(&scene, eyes, FloorMotion::default()).remove(0))
 }
 

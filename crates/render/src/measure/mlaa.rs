@@ -45,6 +45,9 @@ pub enum MlaaTimingError {
     /// MLAA refused or failed.
     #[error(transparent)]
     Mlaa(#[from] MlaaError),
+    /// The design's medium could not be made.
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
 }
 
 /// The benchmark frame's display values at `width` x `height` and `spp` samples per pixel.
@@ -54,7 +57,7 @@ pub fn benchmark_display(design: &Design, width: u32, height: u32, spp: u32) -> 
         (view.camera.width, view.camera.height) = (width, height);
     }
     let env = crate::env::EnvironmentMap::from_lighting(&scene.lighting)?;
-    let eye = crate::methods::tracer::render_frame(&scene, &env).eyes.remove(0);
+    let eye = crate::methods::tracer::render_frame(&scene, &env)?.eyes.remove(0);
     let exposure = scene.exposure;
     Ok(eye.pixels.iter().map(|p| p.map(|c| display_value(c, &exposure) as f32)).collect())
 }

@@ -6,7 +6,9 @@
 //! rasterizer, the post-process filters); `mlaa`, morphological antialiasing's time per
 //! frame (`bench mlaa`); `antialiasing`, each antialiasing level's error on edge pixels
 //! against a converged reference (`bench antialiasing`); `analytic_accuracy` measures the rasterizer's
-//! depth, coverage and contact-shadow errors (`bench analytic-accuracy`). Nothing here is
+//! depth, coverage and contact-shadow errors (`bench analytic-accuracy`); `media_reference`
+//! sets the reference tracer with a participating medium beside Mitsuba 3's volumetric path
+//! tracer (`bench media-reference`). Nothing here is
 //! needed to render a frame.
 
 pub mod analytic;
@@ -14,6 +16,7 @@ pub mod analytic_accuracy;
 pub mod antialiasing;
 pub mod cost;
 pub mod filters;
+pub mod media_reference;
 pub mod methods;
 pub mod mlaa;
 pub mod tracer;

@@ -179,21 +179,21 @@ pub enum BenchError {
     Frame(String),
 }
 
-fn read(path: &Path) -> Result<Vec<u8>, BenchError> {
+pub(crate) fn read(path: &Path) -> Result<Vec<u8>, BenchError> {
     std::fs::read(path).map_err(|e| BenchError::File(path.to_path_buf(), e))
 }
 
-fn write(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
+pub(crate) fn write(path: &Path, bytes: &[u8]) -> Result<(), BenchError> {
     std::fs::write(path, bytes).map_err(|e| BenchError::File(path.to_path_buf(), e))
 }
 
 /// Per-pixel noise from two independently seeded renders: their RMS difference over
 /// sqrt(2).
-fn rms_noise(a: &LinearImage, b: &LinearImage) -> f64 {
+pub(crate) fn rms_noise(a: &LinearImage, b: &LinearImage) -> f64 {
     a.rms_difference(b) / std::f64::consts::SQRT_2
 }
 
-fn mean_rgb(images: &[&LinearImage]) -> [f64; 3] {
+pub(crate) fn mean_rgb(images: &[&LinearImage]) -> [f64; 3] {
     let n: usize = images.iter().map(|i| i.pixels.len()).sum();
     std::array::from_fn(|c| {
         let sum: CompensatedSum = images.iter().flat_map(|i| i.pixels.iter().map(move |p| f64::from(p[c]))).collect();
@@ -247,7 +247,7 @@ fn timed_render(scene: &FrameScene, env: &EnvironmentMap, tracer: TimedTracer<'_
             .map_err(|e| BenchError::Frame(e.to_string()))?
             .pop()
             .ok_or_else(|| BenchError::Frame("no image".into()))?,
-        TimedTracer::Reference => render_frame(scene, env),
+        TimedTracer::Reference => render_frame(scene, env).map_err(|e| BenchError::Frame(e.to_string()))?,
     };
     let seconds = start.elapsed().as_secs_f64();
     Ok(Timed { image: out.eyes.remove(0), seconds, samples: out.camera_samples, nonfinite: out.nonfinite_samples })
@@ -484,10 +484,16 @@ pub fn run_benchmark(opts: &BenchOptions) -> Result<serde_json::Value, BenchErro
 /// Runs one round of the Mitsuba driver in `work` (scene already written) and returns
 /// its report.
 fn run_peer(opts: &BenchOptions, work: &Path) -> Result<serde_json::Value, BenchError> {
-    let status =
-        std::process::Command::new(&opts.python).arg(&opts.peer_script).arg(work).status().map_err(|e| {
-            BenchError::Peer(format!("cannot start {} {}: {e}", opts.python, opts.peer_script.display()))
-        })?;
+    run_peer_script(&opts.python, &opts.peer_script, work)
+}
+
+/// Runs the Mitsuba driver `script` with `python` on the work folder and reads its report.
+pub(crate) fn run_peer_script(python: &str, script: &Path, work: &Path) -> Result<serde_json::Value, BenchError> {
+    let status = std::process::Command::new(python)
+        .arg(script)
+        .arg(work)
+        .status()
+        .map_err(|e| BenchError::Peer(format!("cannot start {python} {}: {e}", script.display())))?;
     if !status.success() {
         return Err(BenchError::Peer(format!("the Mitsuba peer failed ({status}); is `pip install mitsuba` done?")));
     }
@@ -495,8 +501,10 @@ fn run_peer(opts: &BenchOptions, work: &Path) -> Result<serde_json::Value, Bench
     serde_json::from_slice(&read(&peer_json)?).map_err(|e| BenchError::Peer(format!("{}: {e}", peer_json.display())))
 }
 
-/// Writes `scene.json`, the environment map and the sphere's baked albedo for the peer.
-fn write_peer_scene(scene: &FrameScene, dir: &Path, sampler: &str, variant: &str) -> Result<(), BenchError> {
+/// Writes `scene.json`, the environment map and the sphere's baked albedo for the peer; a
+/// scene with a medium also gets its grid at the frame's instant as a Mitsuba `.vol` file
+/// (`crate::measure::media_reference`).
+pub(crate) fn write_peer_scene(scene: &FrameScene, dir: &Path, sampler: &str, variant: &str) -> Result<(), BenchError> {
     let cam = &scene.views[0].camera;
     let env_image = match &scene.lighting.environment {
         Environment::Default { width } => default_map(*width),
@@ -525,7 +533,7 @@ fn write_peer_scene(scene: &FrameScene, dir: &Path, sampler: &str, variant: &str
     let tex_path = dir.join("sphere-albedo.exr");
     write(&tex_path, &encode_exr(&sphere.albedo)?)?;
 
-    let desc = json!({
+    let mut desc = json!({
         "camera": {
             "position": cam.position.to_array(),
             "target": (cam.position + cam.forward).to_array(),
@@ -550,6 +558,11 @@ fn write_peer_scene(scene: &FrameScene, dir: &Path, sampler: &str, variant: &str
         "mitsuba_sampler": sampler,
         "mitsuba_variant": variant,
     });
+    if let Some(medium) = &scene.medium {
+        let (json, depth) = crate::measure::media_reference::write_peer_medium(scene, medium, dir)?;
+        desc["medium"] = json;
+        desc["mitsuba_max_depth"] = json!(depth);
+    }
     write(&dir.join("scene.json"), &serde_json::to_vec_pretty(&desc).expect("JSON of plain values"))?;
     Ok(())
 }

@@ -140,7 +140,8 @@ pub fn run_gpu_benchmark(tracer: &GpuTracer, opts: &GpuBenchOptions) -> Result<s
         let mut samples = 0;
         for _ in 0..rounds.max(1) {
             let start = Instant::now();
-            let out = crate::methods::tracer::render_frame(&scene, &env);
+            let out =
+                crate::methods::tracer::render_frame(&scene, &env).map_err(|e| BenchError::Frame(e.to_string()))?;
             best = best.min(start.elapsed().as_secs_f64());
             samples = out.camera_samples;
         }

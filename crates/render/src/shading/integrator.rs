@@ -8,16 +8,29 @@
 //! roulette may stop a path before it scatters for the `russian_roulette_from`-th time,
 //! with survival probability equal to the largest channel of the throughput (at most 1,
 //! at least 5 %).
+//!
+//! In a scene with a participating medium ([`PathMedium`]) every segment of the path is
+//! delta tracked through it: a real collision scatters (isotropic phase, weighted by the
+//! albedo), the environment is sampled there with a shadow ray whose transmittance comes
+//! from ratio tracking, and up to `max_scatterings` collisions continue in a direction drawn
+//! from the phase function (a path that leaves a collision for the sky adds nothing: the
+//! sample at the collision counted that light). Surfaces' shadow rays also carry the
+//! medium's transmittance, so the smoke shadows the floor. Without a medium none of this
+//! runs and the path is what it always was.
 
 use std::f64::consts::FRAC_1_PI;
 
 use glam::{DQuat, DVec3};
+
+use media::scatter::{ISOTROPIC, uniform_sphere};
+use media::tracking::Medium;
 
 use super::intersect::{Geometry, Hit, Ray, Surface, spawn_ray};
 use super::material::Shader;
 use super::sampler::{PixelSampler, dim};
 use crate::env::EnvironmentMap;
 use crate::numeric::trig::sin_cos_turns;
+use crate::volume::WorldMedium;
 
 /// Spread (radians) of the cone a sample stands for after a diffuse bounce, for texture
 /// filtering of indirect hits: diffuse light averages over a wide area.
@@ -44,6 +57,18 @@ pub struct PathTracer<'a> {
     pub max_bounces: u32,
     /// Scattering event from which Russian roulette applies.
     pub russian_roulette_from: u32,
+}
+
+/// The medium one camera sample's path travels through, with the random numbers its
+/// tracking draws (their count varies from path to path, so they come from their own seeded
+/// stream rather than the sampler's fixed dimensions).
+pub struct PathMedium<'m, R: FnMut() -> f64> {
+    /// The medium at the sample's time.
+    pub medium: WorldMedium<'m>,
+    /// Collisions that scatter along one path (1: single scattering).
+    pub max_scatterings: u32,
+    /// Uniform numbers in [0, 1).
+    pub uniform: R,
 }
 
 /// Orthonormal basis around a unit normal (Duff et al. 2017, branchless).
@@ -91,6 +116,18 @@ impl PathTracer<'_> {
         self.radiance_from_hit(camera_ray, first, sphere, sampler, pixel_angle)
     }
 
+    /// Radiance along a camera ray through a participating medium.
+    pub fn radiance_in_medium<R: FnMut() -> f64>(
+        &self,
+        camera_ray: Ray,
+        sphere: &SphereState,
+        sampler: &PixelSampler,
+        pixel_angle: f64,
+        medium: &mut PathMedium<'_, R>,
+    ) -> DVec3 {
+        self.trace(camera_ray, None, sphere, sampler, pixel_angle, Some(medium))
+    }
+
     /// Radiance along a camera ray whose first hit is already known (`None`: it leaves for
     /// the environment): the analytic rasterizer shades the surface point it found with the
     /// tracer's lighting from there on.
@@ -102,8 +139,20 @@ impl PathTracer<'_> {
         sampler: &PixelSampler,
         pixel_angle: f64,
     ) -> DVec3 {
+        self.trace::<fn() -> f64>(camera_ray, Some(first), sphere, sampler, pixel_angle, None)
+    }
+
+    /// The path: `first` is the camera ray's hit when already known.
+    fn trace<R: FnMut() -> f64>(
+        &self,
+        camera_ray: Ray,
+        mut first: Option<Option<Hit>>,
+        sphere: &SphereState,
+        sampler: &PixelSampler,
+        pixel_angle: f64,
+        mut medium: Option<&mut PathMedium<'_, R>>,
+    ) -> DVec3 {
         let geom = &sphere.geometry;
-        let mut first = Some(first);
         let mut ray = camera_ray;
         let mut l = DVec3::ZERO;
         let mut beta = DVec3::ONE;
@@ -112,12 +161,46 @@ impl PathTracer<'_> {
         let mut cone_width = 0.0;
         let mut spread = pixel_angle;
         let mut bounce = 0u32;
+        let mut scatterings = 0u32;
+        // whether the ray leaves a collision in the medium (its sky was sampled there)
+        let mut from_medium = false;
         loop {
             let found = match first.take() {
                 Some(given) => given,
                 None => geom.intersect(&ray, skip),
             };
+            if let Some(pm) = medium.as_deref_mut() {
+                let t_max = found.as_ref().map_or(f64::INFINITY, |h| h.t);
+                if let Some(t) = pm.medium.sample_collision(ray.origin, ray.dir, t_max, &mut pm.uniform) {
+                    scatterings += 1;
+                    beta *= pm.medium.albedo();
+                    if scatterings > pm.max_scatterings || beta == DVec3::ZERO {
+                        break;
+                    }
+                    let x = ray.origin + t * ray.dir;
+                    let u = [(pm.uniform)(), (pm.uniform)()];
+                    if let Some(s) = self.env.sample(u) {
+                        let shadow = Ray { origin: x, dir: s.direction };
+                        if s.density > 0.0 && !geom.occluded(&shadow, None) {
+                            let tr = pm.medium.transmittance(x, s.direction, f64::INFINITY, &mut pm.uniform);
+                            l += beta * self.env.sample_radiance(&s) * (ISOTROPIC / s.pdf() * tr);
+                        }
+                    }
+                    if scatterings == pm.max_scatterings {
+                        break;
+                    }
+                    ray = Ray { origin: x, dir: uniform_sphere([(pm.uniform)(), (pm.uniform)()]) };
+                    skip = None;
+                    cone_width += t * spread;
+                    spread = spread.max(DIFFUSE_SPREAD);
+                    from_medium = true;
+                    continue;
+                }
+            }
             let Some(mut hit) = found else {
+                if from_medium {
+                    break;
+                }
                 if bounce == 0 {
                     l += beta * self.env.radiance(ray.dir);
                 } else {
@@ -133,6 +216,7 @@ impl PathTracer<'_> {
                 }
                 break;
             };
+            from_medium = false;
             if bounce == self.max_bounces {
                 break;
             }
@@ -163,7 +247,14 @@ impl PathTracer<'_> {
                         let b = cos * FRAC_1_PI;
                         let bj = b * s.jacobian;
                         let weight = b * s.density * s.jacobian / (s.density * s.density + bj * bj);
-                        l += beta * albedo * self.env.sample_radiance(&s) * weight;
+                        let light = beta * albedo * self.env.sample_radiance(&s) * weight;
+                        l += match medium.as_deref_mut() {
+                            None => light,
+                            Some(pm) => {
+                                light
+                                    * pm.medium.transmittance(shadow.origin, shadow.dir, f64::INFINITY, &mut pm.uniform)
+                            }
+                        };
                     }
                 }
             }

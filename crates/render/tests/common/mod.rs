@@ -39,6 +39,7 @@ pub fn scene(camera: Camera, material: Material, environment: Environment, spp: 
         antialias: None,
         integrator: Integrator { max_bounces: 4, russian_roulette_from: 3 },
         exposure: Exposure { stops: 0.0, tone_map: ToneMap::Reinhard },
+        medium: None,
     }
 }
 

@@ -17,6 +17,7 @@
 //! preset or sampling mode is refused, naming the design keys that differ from the folder's
 //! `design.toml` copy.
 
+pub(crate) mod medium;
 mod progress;
 mod render;
 mod store;
@@ -79,6 +80,17 @@ pub enum SetError {
     /// The requested device cannot be opened.
     #[error(transparent)]
     Device(#[from] DeviceError),
+    /// The design has a participating medium and the device's tracer does not render one.
+    #[error(
+        "the design has a participating medium (its [medium] table), which only the f64 reference tracer renders so far: --device {device} cannot; use --device cpu-reference (auto picks it)"
+    )]
+    MediumDevice {
+        /// The device asked for.
+        device: String,
+    },
+    /// The design's medium's grids could not be made.
+    #[error(transparent)]
+    Medium(#[from] ::render::volume::VolumeError),
     /// The output folder holds a set that this request must not mix with.
     #[error("{}: {message}", path.display())]
     Mismatch {
@@ -112,6 +124,8 @@ impl SetError {
                 | SetError::Device(DeviceError::NoGpu(_))
                 | SetError::Mismatch { .. }
                 | SetError::Incomplete { .. }
+                | SetError::MediumDevice { .. }
+                | SetError::Medium(_)
         )
     }
 }

@@ -42,13 +42,15 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
     for id in &request.ids {
         design.check_id(id)?;
     }
+    let device = super::medium::device_for(design, request.device)?;
     let out = &request.out;
     std::fs::create_dir_all(out).map_err(io_err(out, "cannot create the output folder"))?;
     let mut folder = SetFolder::open(out, design, preset, request.sampling)?;
     // Publishing the index first finds an unwritable folder before any rendering.
     folder.publish(writer)?;
     let env = EnvironmentMap::from_lighting(&design.lighting)?;
-    let renderer = Renderer::open(request.device, &env)?;
+    let renderer = Renderer::open(device, &env)?;
+    super::medium::prepare(design, preset, request.progress)?;
 
     let total_cost: u64 = request.ids.iter().map(|id| frame_cost(preset, id) * u64::from(preset.frames)).sum();
     let progress = Progress::new(request.progress, total_cost, request.ids.len());

@@ -78,13 +78,15 @@ pub fn render_shard_with(
     for id in &request.ids {
         design.check_id(id)?;
     }
+    let device = crate::set::medium::device_for(design, request.device)?;
     let plan = Plan::compute(request, shard.count)?;
     std::fs::create_dir_all(out).map_err(io_err(out, "cannot create the output folder"))?;
     let mut folder = SetFolder::open(out, design, preset, request.sampling)?;
     claim_plan(out, &plan, writer)?;
     folder.publish(writer)?;
     let env = EnvironmentMap::from_lighting(&design.lighting)?;
-    let renderer = Renderer::open(request.device, &env)?;
+    let renderer = Renderer::open(device, &env)?;
+    crate::set::medium::prepare(design, preset, request.progress)?;
 
     let mine: Vec<&Unit> = plan.units.iter().filter(|u| u.shard == shard.index).collect();
     let progress = Progress::new(request.progress, mine.iter().map(|u| u.cost).sum(), mine.len());

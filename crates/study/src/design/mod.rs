@@ -23,10 +23,14 @@ use crate::method::MethodSpec;
 use crate::scene::{Environment, Lighting};
 use crate::toml_locate::{TomlError, key_line};
 
+mod medium;
 mod scene;
 pub mod spec;
 mod validate;
 
+pub use medium::{
+    MAX_EXTINCTION, MAX_SCATTERINGS, MAX_SIMULATION_CELLS, MAX_SIMULATION_SIDE, MAX_STEPS_PER_FRAME, MAX_WARMUP_FRAMES,
+};
 pub use validate::{
     MAX_BOUNCES, MAX_FRAME_SAMPLES, MAX_FRAME_TRIANGLE_PIXELS, MAX_FRAMES, MAX_OCTAVES, MAX_PIXELS, MAX_SAMPLES,
     MAX_SIDE,
@@ -146,6 +150,8 @@ pub struct Design {
     pub spec: DesignSpec,
     /// The lighting with file paths resolved against the design's folder.
     pub lighting: Lighting,
+    /// The `[medium]` resolved, over the whole sequence (`None` without one).
+    pub medium: Option<crate::medium::SceneMedium>,
     /// The typed method of each method table: `[method]`, or each `[[factors.method]]`
     /// level in file order.
     methods: Vec<MethodSpec>,
@@ -192,6 +198,7 @@ impl Design {
                 intensity: 0.0,
                 rotation_y: 0.0,
             },
+            medium: None,
             spec,
             methods: Vec::new(),
             antialias: Vec::new(),
@@ -201,6 +208,7 @@ impl Design {
         design.methods = design.typed_methods()?;
         design.antialias = design.typed_antialias()?;
         design.lighting = design.resolve_lighting()?;
+        design.medium = design.resolve_medium()?;
         Ok(design)
     }
 

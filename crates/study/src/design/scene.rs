@@ -170,6 +170,7 @@ impl Design {
                 russian_roulette_from: s.integrator.russian_roulette_from,
             },
             exposure: Exposure { stops: s.exposure.stops, tone_map: s.exposure.tone_map },
+            medium: self.medium_for(preset),
         })
     }
 }

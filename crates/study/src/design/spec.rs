@@ -281,6 +281,63 @@ pub struct FactorsSpec {
     pub method: Vec<MethodTable>,
 }
 
+/// Where a `[medium]`'s grids come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MediumSourceKind {
+    /// blurlab's smoke simulation (`[medium.simulation]`).
+    Simulation,
+    /// `blurlab-grid/1` files, one per frame (`path`, a pattern with a run of `#`).
+    Files,
+}
+
+/// `[medium.simulation]`: the smoke simulation that makes a medium's grids.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulationSpec {
+    /// Cells along x, y (up) and z.
+    pub resolution: [u32; 3],
+    /// Seed of the source's flicker (default: the design's `master_seed`).
+    pub seed: Option<u64>,
+    /// Simulation steps per frame (default 1).
+    #[serde(default = "one")]
+    pub steps_per_frame: u32,
+    /// Frames simulated before the sequence's frame 0, so that the plume has risen (default 0).
+    #[serde(default)]
+    pub warmup_frames: u32,
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// `[medium]`: a participating medium in the scene (optional; a design without it runs no
+/// volume code).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MediumSpec {
+    /// Where the grids come from.
+    pub source: MediumSourceKind,
+    /// Source `files`: the grid files' pattern, relative to the design file's folder, with a
+    /// run of `#` for the zero-padded timeline frame number (`smoke/density-####.grid`).
+    pub path: Option<String>,
+    /// Source `simulation`: its settings.
+    pub simulation: Option<SimulationSpec>,
+    /// Centre of the grids' box in the world, metres (the sphere crosses the image centre at
+    /// x = z = 0, standing on the floor).
+    pub centre: [f64; 3],
+    /// Size of the box along x, y and z, metres.
+    pub size: [f64; 3],
+    /// Extinction coefficient at density 1, per metre.
+    pub extinction: f64,
+    /// Single-scattering albedo in [0, 1].
+    pub albedo: f64,
+    /// Scattering events in the medium along one path of the reference tracer (default 1,
+    /// the thesis's single scattering; more adds multiple scattering).
+    #[serde(default = "one")]
+    pub max_scatterings: u32,
+}
+
 /// One `[presets.NAME]` table: overrides of the full design for smaller renders.
 #[derive(Clone, Debug, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -328,6 +385,9 @@ pub struct DesignSpec {
     /// The set's rendering method (`[method] kind = "tracer"` when absent).
     #[serde(default)]
     pub method: MethodTable,
+    /// A participating medium (optional).
+    #[serde(default)]
+    pub medium: Option<MediumSpec>,
     /// Named presets (`full` applies none of its overrides unless given).
     #[serde(default)]
     pub presets: BTreeMap<String, PresetSpec>,

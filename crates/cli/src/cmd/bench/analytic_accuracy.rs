@@ -73,7 +73,7 @@ fn contact_shadows(design: &study::design::Design, args: &Args) -> anyhow::Resul
         let env = render::env::EnvironmentMap::from_lighting(&scene.lighting).map_err(|e| BadInput(e.to_string()))?;
         render::methods::analytic::check_motion(&scene)
             .map_err(|e| BadInput(format!("--shadow-speeds {speed}: {e}")))?;
-        let traced = render::methods::tracer::render_frame(&scene, &env);
+        let traced = render::methods::tracer::render_frame(&scene, &env).map_err(|e| BadInput(e.to_string()))?;
         let raster =
             render::methods::analytic::render_frame(&scene, &env, &render::measure::analytic_accuracy::SHADOW_PARAMS)?;
         out.push(contact_shadow_error(&scene, speed, &traced.eyes[0], &raster.eyes[0]));

@@ -71,7 +71,8 @@ pub(crate) fn trace(renderer: &Renderer<'_>, scene: &FrameScene) -> Result<Trace
                 CpuTracer::Wide(tables) => {
                     wide::render_frame(scene, tables).map_err(|e| RenderError::Scene(e.to_string()))?
                 }
-                CpuTracer::Reference => crate::methods::tracer::render_frame(scene, renderer.env()),
+                CpuTracer::Reference => crate::methods::tracer::render_frame(scene, renderer.env())
+                    .map_err(|e| RenderError::Scene(e.to_string()))?,
             };
             Traced {
                 eyes: f.eyes,
@@ -118,6 +119,7 @@ impl RenderMethod for Tracer {
                     }
                     CpuTracer::Reference => {
                         crate::methods::tracer::render_frame_nested(scene, renderer.env(), checkpoints)
+                            .map_err(|e| RenderError::Scene(e.to_string()))?
                     }
                 }
                 .into_iter()

@@ -10,18 +10,26 @@
 //! The per-frame setup ([`FrameSetup`]) decides what needs simulating: a frame with a
 //! closed shutter or no motion samples no time dimension (the sphere is placed once), and
 //! a flat material evaluates no texture.
+//!
+//! A scene with a participating medium ([`FrameScene::medium`]) gets its grids from
+//! [`crate::volume::grids_for`] (made once per process) and tracks every path through the
+//! medium as it is at the sample's time; the tracking's random numbers come from a stream
+//! seeded per eye, pixel and sample. Without a medium no volume code runs.
 
 use glam::{DQuat, DVec2, DVec3};
+use rand::{RngExt, SeedableRng};
 use rayon::prelude::*;
 use study::scene::FrameScene;
+use study::seed::mix;
 
 use crate::env::EnvironmentMap;
 use crate::io::LinearImage;
 use crate::shading::camera::CameraRays;
-use crate::shading::integrator::{PathTracer, SphereState};
+use crate::shading::integrator::{PathMedium, PathTracer, SphereState};
 use crate::shading::intersect::Geometry;
 use crate::shading::material::Shader;
 use crate::shading::sampler::{PixelSampler, dim};
+use crate::volume::{VolumeError, WorldMedium, grids_for};
 
 /// The images of one frame and its sample statistics.
 #[derive(Clone, Debug)]
@@ -73,10 +81,11 @@ const TILE: u32 = 16;
 type TileLevel = (Vec<[f32; 3]>, u64);
 
 /// Renders every view of a frame. Deterministic: the same scene and map give the same
-/// pixels, whatever the number of threads.
-pub fn render_frame(scene: &FrameScene, env: &EnvironmentMap) -> FrameOutput {
-    let mut levels = render_frame_nested(scene, env, &[]);
-    levels.pop().unwrap_or(FrameOutput { eyes: Vec::new(), nonfinite_samples: 0, camera_samples: 0 })
+/// pixels, whatever the number of threads. Fails only for a medium whose grids cannot be
+/// made.
+pub fn render_frame(scene: &FrameScene, env: &EnvironmentMap) -> Result<FrameOutput, VolumeError> {
+    let mut levels = render_frame_nested(scene, env, &[])?;
+    Ok(levels.pop().unwrap_or(FrameOutput { eyes: Vec::new(), nonfinite_samples: 0, camera_samples: 0 }))
 }
 
 /// Renders every view of a frame and also reads it out after the first `k` samples per
@@ -84,8 +93,16 @@ pub fn render_frame(scene: &FrameScene, env: &EnvironmentMap) -> FrameOutput {
 /// stream, several sample counts). Returns one output per distinct checkpoint, fewest
 /// samples first, the full count last; each is exactly what rendering that count alone
 /// gives.
-pub fn render_frame_nested(scene: &FrameScene, env: &EnvironmentMap, checkpoints: &[u32]) -> Vec<FrameOutput> {
+pub fn render_frame_nested(
+    scene: &FrameScene,
+    env: &EnvironmentMap,
+    checkpoints: &[u32],
+) -> Result<Vec<FrameOutput>, VolumeError> {
     let setup = FrameSetup::new(scene);
+    let medium = match &scene.medium {
+        None => None,
+        Some(m) => Some((m, grids_for(m, &mut |_, _| {})?)),
+    };
     let tracer = PathTracer {
         env,
         shader: Shader::new(&scene.material),
@@ -126,11 +143,34 @@ pub fn render_frame_nested(scene: &FrameScene, env: &EnvironmentMap, checkpoints
                             sampler.start_sample(i);
                             let u = if scene.pixel_jitter { sampler.get_2d(dim::PIXEL) } else { [0.5, 0.5] };
                             let ray = rays.ray(DVec2::new(f64::from(x) + u[0], f64::from(y) + u[1]));
+                            let time = if setup.time_sampling {
+                                scene.shutter.time_at(sampler.get_1d(dim::TIME))
+                            } else {
+                                scene.shutter.open
+                            };
                             let sphere = match &setup.fixed_sphere {
                                 Some(s) => *s,
-                                None => setup.sphere_at(scene, scene.shutter.time_at(sampler.get_1d(dim::TIME))),
+                                None => setup.sphere_at(scene, time),
                             };
-                            let l = tracer.radiance(ray, &sphere, &sampler, rays.pixel_angle);
+                            let l = match &medium {
+                                None => tracer.radiance(ray, &sphere, &sampler, rays.pixel_angle),
+                                Some((m, grids)) => {
+                                    let seed = mix(view.seed, &[u64::from(x), u64::from(y), u64::from(i)]);
+                                    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(seed);
+                                    let mut path_medium = PathMedium {
+                                        medium: WorldMedium::at(m, grids, time),
+                                        max_scatterings: m.max_scatterings,
+                                        uniform: || rng.random::<f64>(),
+                                    };
+                                    tracer.radiance_in_medium(
+                                        ray,
+                                        &sphere,
+                                        &sampler,
+                                        rays.pixel_angle,
+                                        &mut path_medium,
+                                    )
+                                }
+                            };
                             if l.is_finite() {
                                 sum += l;
                             } else {
@@ -165,5 +205,5 @@ pub fn render_frame_nested(scene: &FrameScene, env: &EnvironmentMap, checkpoints
             out.eyes.push(img);
         }
     }
-    outputs
+    Ok(outputs)
 }

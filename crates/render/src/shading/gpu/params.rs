@@ -275,6 +275,11 @@ pub enum ParamsError {
         /// Wrap length.
         wrap: f64,
     },
+    /// The scene has a participating medium, which only the f64 reference tracer renders.
+    #[error(
+        "the scene has a participating medium (the design's [medium]); the f32 tracer (GPU kernel and wide CPU tracer) does not render media: use --device cpu-reference"
+    )]
+    Medium,
     /// The image has no pixels or is too large to index with u32.
     #[error("image {width}x{height}: the GPU tracer needs 1 to 2^32 - 1 pixels")]
     ImageSize {
@@ -292,6 +297,9 @@ fn v4(v: DVec3, w: f64) -> [f32; 4] {
 impl FrameParams {
     /// The parameters of eye `view` of `scene`, with the environment described by `env`.
     pub fn new(scene: &FrameScene, view: &EyeView, env: &EnvTables) -> Result<Self, ParamsError> {
+        if scene.medium.is_some() {
+            return Err(ParamsError::Medium);
+        }
         let cam = &view.camera;
         let (width, height) = (cam.width, cam.height);
         if width == 0 || height == 0 || u64::from(width) * u64::from(height) > u64::from(u32::MAX) {
