@@ -70,6 +70,8 @@ pub const MAX_DIMENSION: usize = 4096;
 pub struct DensityGrid {
     dims: [usize; 3],
     data: Vec<f32>,
+    // the majorant of every tracking step: kept rather than found by a scan per ray
+    max: f32,
 }
 
 impl DensityGrid {
@@ -84,13 +86,14 @@ impl DensityGrid {
         if let Some(index) = data.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
             return Err(value_error(dims, index, data[index]));
         }
-        Ok(Self { dims, data })
+        Ok(Self::from_valid(dims, data))
     }
 
     /// A grid from values the caller has made finite and >= 0, of validated dimensions.
     pub(crate) fn from_valid(dims: [usize; 3], data: Vec<f32>) -> Self {
         debug_assert!(data.len() == dims[0] * dims[1] * dims[2] && data.iter().all(|v| v.is_finite() && *v >= 0.0));
-        Self { dims, data }
+        let max = data.iter().copied().fold(0.0, f32::max);
+        Self { dims, data, max }
     }
 
     /// A grid of one constant density.
@@ -116,7 +119,7 @@ impl DensityGrid {
 
     /// The largest density.
     pub fn max_density(&self) -> f32 {
-        self.data.iter().copied().fold(0.0, f32::max)
+        self.max
     }
 
     /// Whether every voxel is zero.
