@@ -150,6 +150,7 @@ pub fn run(
             sigma_t: setup.sigma_t,
             albedo: setup.albedo,
             alpha_colour: Vec3::splat(setup.albedo * 0.5),
+            voxel_length: MarchMedium::unit_cube_voxel(grid),
         };
         let skipping = MarchMedium { distance: Some(&map), ..plain };
         let plain_volume = gpu.map(|g| g.upload(&plain));

@@ -116,6 +116,18 @@ pub struct MarchMedium<'a> {
     pub albedo: f32,
     /// The colour of [`LightingModel::AlphaCompositing`].
     pub alpha_colour: Vec3,
+    /// The length along rays of one voxel (the shortest of its edges), in the rays' units:
+    /// what turns the distance map's voxels into ray lengths. In the unit cube with unit
+    /// directions it is `1 / longest side in voxels` ([`MarchMedium::unit_cube_voxel`]).
+    pub voxel_length: f32,
+}
+
+impl MarchMedium<'_> {
+    /// The voxel length of `grid` in the unit cube.
+    pub fn unit_cube_voxel(grid: &DensityGrid) -> f32 {
+        let dims = grid.dims();
+        1.0 / dims[0].max(dims[1]).max(dims[2]) as f32
+    }
 }
 
 /// The marcher's settings.
@@ -188,9 +200,8 @@ pub fn cube_interval(origin: Vec3, direction: Vec3) -> Option<(f32, f32)> {
 
 /// How many whole segments the distance map lets a ray skip from `p`: segments wholly
 /// inside the empty ball around `p`.
-fn skippable(distance: Option<&DistanceMap>, p: Vec3, step: f32, dims: [usize; 3]) -> u32 {
+fn skippable(distance: Option<&DistanceMap>, p: Vec3, step: f32, dims: [usize; 3], voxel_length: f32) -> u32 {
     let Some(map) = distance else { return 0 };
-    let longest = dims[0].max(dims[1]).max(dims[2]) as f32;
     // the GPU cannot hold infinity: both sides cap the empty distance at NO_LIMIT
     // nearest voxel centre, as DistanceMap::skip does, in f32
     let mut off2 = 0.0f32;
@@ -202,7 +213,7 @@ fn skippable(distance: Option<&DistanceMap>, p: Vec3, step: f32, dims: [usize; 3
         c[a] = i as usize;
     }
     let free_voxels = map.voxel(c[0], c[1], c[2]).min(NO_LIMIT) - off2.sqrt() - TENT_REACH as f32;
-    let free = free_voxels / longest;
+    let free = free_voxels * voxel_length;
     // the next segment's whole extent must lie inside the ball: floor(free / step) - 1
     ((free / step).floor() - 1.0).clamp(0.0, NO_LIMIT) as u32
 }
@@ -210,7 +221,7 @@ fn skippable(distance: Option<&DistanceMap>, p: Vec3, step: f32, dims: [usize; 3
 /// The segments to skip after a sample of density `rho` at `p`: none inside the medium
 /// (where the map's distance is zero anyway, so its lookup is saved).
 fn skip_from(medium: &MarchMedium, rho: f32, p: Vec3, step: f32) -> u32 {
-    if rho > 0.0 { 0 } else { skippable(medium.distance, p, step, medium.grid.dims()) }
+    if rho > 0.0 { 0 } else { skippable(medium.distance, p, step, medium.grid.dims(), medium.voxel_length) }
 }
 
 /// The segment `i` of a ray clipped to `[enter, exit]`: its midpoint parameter and length.
@@ -229,7 +240,17 @@ pub fn first_segment(
     settings: &MarchSettings,
     lookups: &mut u32,
 ) -> Option<u32> {
-    let (enter, exit) = cube_interval(origin, direction)?;
+    first_in(medium, (origin, direction), cube_interval(origin, direction)?, settings, lookups)
+}
+
+/// [`first_segment`] over the part `[enter, exit]` of the ray.
+fn first_in(
+    medium: &MarchMedium,
+    (origin, direction): (Vec3, Vec3),
+    (enter, exit): (f32, f32),
+    settings: &MarchSettings,
+    lookups: &mut u32,
+) -> Option<u32> {
     let step = settings.step;
     let mut i = (enter / step).floor() as u32;
     while let Some((t, _)) = segment(i, step, enter, exit) {
@@ -244,8 +265,10 @@ pub fn first_segment(
     None
 }
 
-/// The transmittance from `p` towards a light, by a shadow ray on its own lattice.
-fn shadow(medium: &MarchMedium, p: Vec3, direction: Vec3, step: f32, lookups: &mut u32) -> f32 {
+/// The transmittance from `p` towards a light in `direction`, by a shadow ray on its own
+/// lattice of segments `step` long (the marcher's shadow rays, also what the smoke's shadow
+/// on a surface is made of).
+pub fn shadow(medium: &MarchMedium, p: Vec3, direction: Vec3, step: f32, lookups: &mut u32) -> f32 {
     let Some((enter, exit)) = cube_interval(p, direction) else { return 1.0 };
     let mut depth = 0.0f32;
     let mut i = (enter / step).floor() as u32;
@@ -269,12 +292,29 @@ pub fn march(
     settings: &MarchSettings,
     use_mask: bool,
 ) -> MarchResult {
+    march_to(medium, lights, (origin, direction, f32::INFINITY), settings, use_mask)
+}
+
+/// Marches one primary ray `(origin, direction, limit)` up to the ray parameter `limit`,
+/// where a surface hides what lies behind (the segment that holds it is cut there).
+/// `direction` need not be unit length: ray lengths are then in its units.
+pub fn march_to(
+    medium: &MarchMedium,
+    lights: &[MarchLight],
+    (origin, direction, limit): (Vec3, Vec3, f32),
+    settings: &MarchSettings,
+    use_mask: bool,
+) -> MarchResult {
     let mut result = MarchResult { transmittance: 1.0, ..MarchResult::default() };
     let Some((enter, exit)) = cube_interval(origin, direction) else { return result };
+    let exit = exit.min(limit);
+    if exit <= enter {
+        return result;
+    }
     let step = settings.step;
     let mut i = (enter / step).floor() as u32;
     if use_mask {
-        match first_segment(medium, origin, direction, settings, &mut result.primary_lookups) {
+        match first_in(medium, (origin, direction), (enter, exit), settings, &mut result.primary_lookups) {
             Some(first) => i = first,
             None => return result,
         }
@@ -325,7 +365,14 @@ mod tests {
     }
 
     fn medium(grid: &DensityGrid, sigma_t: f32) -> MarchMedium<'_> {
-        MarchMedium { grid, distance: None, sigma_t, albedo: 0.9, alpha_colour: Vec3::splat(0.5) }
+        MarchMedium {
+            grid,
+            distance: None,
+            sigma_t,
+            albedo: 0.9,
+            alpha_colour: Vec3::splat(0.5),
+            voxel_length: MarchMedium::unit_cube_voxel(grid),
+        }
     }
 
     #[test]

@@ -149,6 +149,7 @@ pub fn march_shutter(
             sigma_t: what.sigma_t,
             albedo: what.albedo,
             alpha_colour: what.alpha_colour,
+            voxel_length: MarchMedium::unit_cube_voxel(&grid),
         };
         for (acc, r) in sum.iter_mut().zip(march_image(&medium, lights, camera, size, settings, use_mask)) {
             acc.radiance += r.radiance;

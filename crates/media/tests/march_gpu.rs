@@ -25,8 +25,14 @@ fn gpu_marcher_matches_its_cpu_twin() {
     ];
     let (w, h) = (40, 36);
     let camera = PixelCamera::look_at(Vec3::new(0.4, 0.6, -1.4), Vec3::new(0.5, 0.45, 0.5), 0.9, w, h);
-    let plain =
-        MarchMedium { grid: &grid, distance: None, sigma_t: 25.0, albedo: 0.85, alpha_colour: Vec3::splat(0.6) };
+    let plain = MarchMedium {
+        grid: &grid,
+        distance: None,
+        sigma_t: 25.0,
+        albedo: 0.85,
+        alpha_colour: Vec3::splat(0.6),
+        voxel_length: MarchMedium::unit_cube_voxel(&grid),
+    };
     let skipping = MarchMedium { distance: Some(&map), ..plain };
     for model in [LightingModel::AlphaCompositing, LightingModel::PrimaryRays, LightingModel::PrimaryAndShadowRays] {
         // the thesis's way (light every segment) for one model, the density test for the others

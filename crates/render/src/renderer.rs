@@ -273,10 +273,13 @@ impl<'env> Renderer<'env> {
         scene: &FrameScene,
         checkpoints: &[u32],
     ) -> Result<Submitted<'_>, RenderError> {
-        if scene.medium.is_some() && !matches!(method.kind(), study::Method::Tracer | study::Method::Accum) {
+        if scene.medium.is_some()
+            && !matches!(method.kind(), study::Method::Tracer | study::Method::Accum | study::Method::Marcher)
+        {
             return Err(RenderError::Scene(format!(
                 "the scene has a participating medium (the design's [medium]); the `{}` method does not render \
-                 media: only the tracer and the accumulation buffer do, on --device cpu-reference",
+                 media: the marcher does on every device, the tracer and the accumulation buffer on --device \
+                 cpu-reference",
                 method.kind()
             )));
         }

@@ -79,8 +79,9 @@ pub struct MethodTag {
 }
 
 impl MethodTag {
-    /// Most levels of one method in a design.
-    pub const MAX_VARIANTS: u8 = 50;
+    /// Most levels of one method in a design: the codes of every method's levels fit one
+    /// byte (42 x 6 methods = 252, with room for none more: a seventh method lowers it).
+    pub const MAX_VARIANTS: u8 = 42;
 
     /// The tag as one small number, ordered as the tags are ([`StimulusId::level`]).
     pub fn code(self) -> u8 {
@@ -355,6 +356,7 @@ mod tests {
                 tags.push(MethodTag { kind, variant });
             }
         }
+        assert!(tags.len() <= usize::from(u8::MAX), "{} method codes do not fit a byte", tags.len());
         for w in tags.windows(2) {
             assert!(w[0] < w[1] && w[0].code() < w[1].code());
         }
@@ -373,8 +375,8 @@ mod tests {
             ("M2-X2-T3-A5", "should start with `S`"),
             ("M0-S2-T3-A5", "level number of 1 or more"),
             ("M2-S2-T3-A5-mono", "unknown rendering method `mono`"),
-            ("M2-S2-T3-A5-guertin1", "from 2 to 50"),
-            ("M2-S2-T3-A5-guertin02", "from 2 to 50"),
+            ("M2-S2-T3-A5-guertin1", "from 2 to 42"),
+            ("M2-S2-T3-A5-guertin02", "from 2 to 42"),
             ("M2-S2-T3-A5-tracer-x-stereo", "found 6 level parts"),
         ] {
             let e = text.parse::<StimulusId>().unwrap_err();

@@ -41,7 +41,7 @@ fn the_shipped_smoke_design_places_a_simulated_plume_on_the_floor() {
     assert_eq!((m.extinction, m.albedo, m.max_scatterings), (25.0, 0.9, 1));
     // The quick preset renders frames 20..=27: its shutters reach grids 19..=28.
     let quick = d.preset("quick").unwrap();
-    let id = "M1-S2-T3-A2".parse().unwrap();
+    let id = "M1-S2-T3-A2-tracer".parse().unwrap();
     let scene = d.frame_scene_with(&quick, &id, 0).unwrap();
     assert_eq!(scene.medium.as_ref().unwrap().grid_frames, [19, 28]);
     // The full preset: the whole sequence.
@@ -51,9 +51,9 @@ fn the_shipped_smoke_design_places_a_simulated_plume_on_the_floor() {
     let text = media_text().replace("degrees_per_second = 10.0", "degrees_per_second = 0.0");
     let dir = tempfile::tempdir().unwrap();
     let still = load_in(dir.path(), &text).unwrap();
-    let open = still.frame_scene_with(&quick, &"M1-S1-T3-A1".parse().unwrap(), 0).unwrap();
+    let open = still.frame_scene_with(&quick, &"M1-S1-T3-A1-tracer".parse().unwrap(), 0).unwrap();
     assert!(open.sphere.speed() == 0.0 && open.needs_time_sampling());
-    let closed = still.frame_scene_with(&quick, &"M1-S1-T1-A1".parse().unwrap(), 0).unwrap();
+    let closed = still.frame_scene_with(&quick, &"M1-S1-T1-A1-tracer".parse().unwrap(), 0).unwrap();
     assert!(!closed.needs_time_sampling());
 }
 

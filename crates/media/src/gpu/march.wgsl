@@ -20,6 +20,7 @@ struct Params {
     use_mask: u32,
     use_distance: u32,
     shade_empty: u32,
+    voxel_length: f32,
 };
 
 struct Light {
@@ -88,8 +89,7 @@ fn skippable(p: vec3<f32>) -> u32 {
     let ci = vec3<u32>(c);
     let stored = min(distance_map[ci.x + params.dims.x * (ci.y + params.dims.y * ci.z)], NO_LIMIT);
     let free_voxels = stored - sqrt(dot(off, off)) - TENT_REACH;
-    let longest = f32(max(max(params.dims.x, params.dims.y), params.dims.z));
-    let free = free_voxels / longest;
+    let free = free_voxels * params.voxel_length;
     return u32(clamp(floor(free / params.step) - 1.0, 0.0, NO_LIMIT));
 }
 

@@ -33,7 +33,8 @@ struct Params {
     use_mask: u32,
     use_distance: u32,
     shade_empty: u32,
-    _pad: [u32; 3],
+    voxel_length: f32,
+    _pad: [u32; 2],
 }
 
 #[repr(C)]
@@ -206,7 +207,8 @@ impl GpuMarcher {
             use_mask: u32::from(use_mask),
             use_distance: u32::from(volume.has_distance),
             shade_empty: u32::from(settings.shade_empty),
-            _pad: [0; 3],
+            voxel_length: medium.voxel_length,
+            _pad: [0; 2],
         };
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("march params"),

@@ -22,6 +22,7 @@ use crate::renderer::{DeviceError, Renderer, Submitted};
 pub mod accum;
 pub mod analytic;
 pub mod guertin;
+pub mod marcher;
 pub mod mcguire;
 pub mod post_process;
 pub mod tracer;
@@ -117,4 +118,5 @@ register! {
     Mcguire => post_process::PostProcess<mcguire::McGuire>,
     Guertin => post_process::PostProcess<guertin::Guertin>,
     Analytic => analytic::Analytic,
+    Marcher => marcher::Marcher,
 }

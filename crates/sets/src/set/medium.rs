@@ -1,7 +1,8 @@
-//! A set whose design has a participating medium: the device that renders it (only the f64
-//! reference tracer renders media so far, so `auto` picks it and the others are refused
-//! before anything is written), and the medium's grids made once before the first frame,
-//! with progress (simulating the smoke can take minutes).
+//! A set whose design has a participating medium: the device that renders it (the tracer and
+//! the accumulation buffer render media only with the f64 reference tracer, so `auto` picks
+//! it for them and the other devices are refused before anything is written; the marcher
+//! renders on any device), and the medium's grids made once before the first frame, with
+//! progress (simulating the smoke can take minutes).
 
 use std::io::{IsTerminal, Write as _};
 use std::time::Instant;
@@ -12,9 +13,17 @@ use study::design::{Design, Preset};
 
 use super::{ProgressMode, SetError};
 
-/// The device `choice` becomes for `design`.
-pub(crate) fn device_for(design: &Design, choice: DeviceChoice) -> Result<DeviceChoice, SetError> {
+/// The device `choice` becomes for `design`'s sequences `ids`.
+pub(crate) fn device_for(
+    design: &Design,
+    ids: &[study::ids::StimulusId],
+    choice: DeviceChoice,
+) -> Result<DeviceChoice, SetError> {
     if design.medium.is_none() {
+        return Ok(choice);
+    }
+    let mut methods = ids.iter().map(|id| design.method_of(id).map(|m| m.kind()));
+    if methods.try_fold(true, |all, m| m.map(|m| all && m == study::Method::Marcher))? {
         return Ok(choice);
     }
     match choice {

@@ -82,7 +82,7 @@ pub enum SetError {
     Device(#[from] DeviceError),
     /// The design has a participating medium and the device's tracer does not render one.
     #[error(
-        "the design has a participating medium (its [medium] table), which only the f64 reference tracer renders so far: --device {device} cannot; use --device cpu-reference (auto picks it)"
+        "the design has a participating medium (its [medium] table), which the tracer and the accumulation buffer render only with the f64 reference tracer: --device {device} cannot; use --device cpu-reference (auto picks it), or the marcher method, which renders on any device"
     )]
     MediumDevice {
         /// The device asked for.

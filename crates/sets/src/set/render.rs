@@ -42,7 +42,7 @@ pub fn render_set_with(request: &SetRequest<'_>, writer: &dyn FileWriter) -> Res
     for id in &request.ids {
         design.check_id(id)?;
     }
-    let device = super::medium::device_for(design, request.device)?;
+    let device = super::medium::device_for(design, &request.ids, request.device)?;
     let out = &request.out;
     std::fs::create_dir_all(out).map_err(io_err(out, "cannot create the output folder"))?;
     let mut folder = SetFolder::open(out, design, preset, request.sampling)?;

@@ -78,7 +78,7 @@ pub fn render_shard_with(
     for id in &request.ids {
         design.check_id(id)?;
     }
-    let device = crate::set::medium::device_for(design, request.device)?;
+    let device = crate::set::medium::device_for(design, &request.ids, request.device)?;
     let plan = Plan::compute(request, shard.count)?;
     std::fs::create_dir_all(out).map_err(io_err(out, "cannot create the output folder"))?;
     let mut folder = SetFolder::open(out, design, preset, request.sampling)?;

@@ -32,6 +32,7 @@ mod accum;
 mod analytic;
 pub mod antialias;
 mod guertin;
+pub mod marcher;
 mod mcguire;
 mod table;
 mod tracer;
@@ -43,6 +44,7 @@ pub use analytic::{
 };
 pub use analytic::{SWEEP_INTERVALS, SWEEP_SUPERSAMPLING};
 pub use guertin::GuertinSettings;
+pub use marcher::{MarchLighting, MarcherSettings};
 pub use mcguire::{McGuireSettings, SWEEP_TAPS};
 pub use table::MethodTable;
 pub use tracer::TracerSettings;
@@ -129,7 +131,8 @@ impl FrameWork {
 pub struct SweepSetting {
     /// The method and its settings.
     pub spec: MethodSpec,
-    /// The knob's name (`spp`, `instants`, `taps`, `intervals`, `supersampling`).
+    /// The knob's name (`spp`, `instants`, `taps`, `intervals`, `supersampling`, `lights`,
+    /// `slices_per_4_voxels`).
     pub knob: &'static str,
     /// Its value.
     pub value: u32,
@@ -298,6 +301,8 @@ methods! {
     Guertin = "guertin" => GuertinSettings,
     /// Gribel et al. 2010 analytic motion blur rasterizer (visibility over the shutter).
     Analytic = "analytic" => AnalyticSettings,
+    /// The thesis's participating-media ray marcher over the tracer's surfaces.
+    Marcher = "marcher" => MarcherSettings,
 }
 
 /// The tracer, the method of a design that names none.
@@ -365,7 +370,10 @@ mod tests {
             assert_eq!(MethodSpec::from_table(&MethodSpec::of(m).to_table()), Ok(MethodSpec::of(m)));
         }
         let e = "raster".parse::<Method>().unwrap_err();
-        assert_eq!(e, "unknown rendering method `raster`; expected one of tracer, accum, mcguire, guertin, analytic");
+        assert_eq!(
+            e,
+            "unknown rendering method `raster`; expected one of tracer, accum, mcguire, guertin, analytic, marcher"
+        );
         assert_eq!(Method::default(), Method::Tracer);
         let table: MethodTable = toml::from_str("kind = \"guertin\"").unwrap();
         assert_eq!(MethodSpec::from_table(&table).unwrap().kind(), Method::Guertin);
@@ -414,6 +422,7 @@ mod tests {
         assert_eq!(cost(Method::Mcguire), 16 + 2);
         assert_eq!(cost(Method::Guertin), 16 + 5);
         assert_eq!(cost(Method::Analytic), 16);
+        assert_eq!(cost(Method::Marcher), 16 + 4);
         for m in Method::ALL {
             assert!(cost(m) >= 16, "{m}");
         }

@@ -84,6 +84,24 @@ pub struct MethodTable {
     /// Analytic rasterizer: sample points per pixel along each axis.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub supersampling: Option<u32>,
+    /// Marcher: the lighting model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lighting: Option<super::marcher::MarchLighting>,
+    /// Marcher: the step in voxels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step: Option<f64>,
+    /// Marcher: lights of the environment's constellation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lights: Option<u32>,
+    /// Marcher: the validity mask.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validity_mask: Option<bool>,
+    /// Marcher: the distance map.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance_map: Option<bool>,
+    /// Marcher: instants the medium is marched at over the open shutter.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sub_frames: Option<u32>,
 }
 
 impl MethodTable {
@@ -111,6 +129,12 @@ impl MethodTable {
         "tessellation",
         "lighting_samples",
         "supersampling",
+        "lighting",
+        "step",
+        "lights",
+        "validity_mask",
+        "distance_map",
+        "sub_frames",
     ];
 
     /// The settings keys written in this table.
@@ -138,6 +162,12 @@ impl MethodTable {
             self.tessellation.is_some(),
             self.lighting_samples.is_some(),
             self.supersampling.is_some(),
+            self.lighting.is_some(),
+            self.step.is_some(),
+            self.lights.is_some(),
+            self.validity_mask.is_some(),
+            self.distance_map.is_some(),
+            self.sub_frames.is_some(),
         ];
         Self::KEYS.iter().zip(written).filter(|(_, w)| *w).map(|(k, _)| *k).collect()
     }

@@ -24,7 +24,7 @@ pub struct Args {
     #[arg(long, default_value = "quick")]
     preset: String,
     /// Stimulus whose frame is compared (frozen at its frame time).
-    #[arg(long, default_value = "M1-S2-T1-A1")]
+    #[arg(long, default_value = "M1-S2-T1-A1-tracer")]
     id: String,
     /// Frame of the preset.
     #[arg(long, default_value_t = 4)]
