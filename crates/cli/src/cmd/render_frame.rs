@@ -13,7 +13,7 @@ use study::Method;
 pub struct Args {
     #[command(flatten)]
     frame: FrameArgs,
-    /// Rendering method: tracer, accum, mcguire, guertin or analytic, with its default
+    /// Rendering method: tracer, accum, mcguire, guertin, analytic or marcher, with its default
     /// settings (default: the design's method and settings, or the id's method level's).
     #[arg(long, value_parser = parse_method)]
     method: Option<Method>,
