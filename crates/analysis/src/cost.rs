@@ -257,7 +257,7 @@ pub fn markdown(sweep: &CostSweep, groups: &[MarkedGroup], figures: &[String], m
     }
     if !maps.is_empty() {
         md.push_str(
-            "\n## FLIP error maps\n\nEach method's coarsest and finest setting, first frame, first repetition: the frame, then its FLIP map (magma: black no error). Reference frames are in `reference/`.\n\n",
+            "\n## FLIP error maps\n\nEach knob's coarsest and finest setting (and every lighting model of the marcher), first frame, first repetition: the frame, then its FLIP map (magma: black no error). Reference frames are in `reference/`.\n\n",
         );
         for m in maps.iter().filter(|m| !m.ends_with("-flip.png")) {
             let flip = m.replace(".png", "-flip.png");

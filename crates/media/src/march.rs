@@ -349,6 +349,79 @@ pub fn march_to(
     result
 }
 
+/// The surface a composited frame's primary ray ends on, for the smoke's shadow on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfacePoint {
+    /// The point, in the cube's frame.
+    pub point: Vec3,
+    /// The surface's unit normal in the world's frame (where the lights' world directions are).
+    pub normal: Vec3,
+}
+
+/// One pixel's primary ray of a frame whose surfaces come from elsewhere (the tracer): the
+/// ray in the cube's frame (its direction need not be unit length; lengths are then in its
+/// units), the ray parameter of the first surface ([`NO_LIMIT`]: none, the sky), and that
+/// surface where its shadow is wanted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceRay {
+    /// Origin, in the cube's frame.
+    pub origin: Vec3,
+    /// Direction, in the cube's frame.
+    pub direction: Vec3,
+    /// The ray parameter where a surface hides what lies behind; [`NO_LIMIT`] for none.
+    pub limit: f32,
+    /// The surface at `limit`, for its shadow (primary and shadow rays only).
+    pub surface: Option<SurfacePoint>,
+}
+
+/// The smoke's shadow on a surface: the lights' irradiance on it through the medium over
+/// that without the medium, per channel, `sum E_n max(0, n.l_n) T_n / sum E_n max(0, n.l_n)`
+/// in light order (1 where no light reaches the surface's side). `world_directions[n]` is
+/// light `n`'s direction in the world, for the cosine; its shadow ray runs along the light's
+/// direction in the cube's frame.
+pub fn surface_shadow(
+    medium: &MarchMedium,
+    lights: &[MarchLight],
+    world_directions: &[Vec3],
+    surface: &SurfacePoint,
+    step: f32,
+    lookups: &mut u32,
+) -> Vec3 {
+    let (mut lit, mut unlit) = (Vec3::ZERO, Vec3::ZERO);
+    for (light, world) in lights.iter().zip(world_directions) {
+        let cosine = surface.normal.dot(*world);
+        if cosine <= 0.0 {
+            continue;
+        }
+        let e = light.irradiance * cosine;
+        unlit += e;
+        lit += e * shadow(medium, surface.point, light.direction, step, lookups);
+    }
+    let ratio = |l: f32, u: f32| if u > 0.0 { l / u } else { 1.0 };
+    Vec3::new(ratio(lit.x, unlit.x), ratio(lit.y, unlit.y), ratio(lit.z, unlit.z))
+}
+
+/// One pixel of a composited frame: the march up to the ray's surface, and the smoke's
+/// shadow on that surface (primary and shadow rays with a surface; 1 otherwise). The CPU
+/// twin of `march.wgsl` given per-pixel rays.
+pub fn march_surface_ray(
+    medium: &MarchMedium,
+    lights: &[MarchLight],
+    world_directions: &[Vec3],
+    ray: &SurfaceRay,
+    settings: &MarchSettings,
+    use_mask: bool,
+) -> (MarchResult, Vec3) {
+    let mut result = march_to(medium, lights, (ray.origin, ray.direction, ray.limit), settings, use_mask);
+    let shadowed = match &ray.surface {
+        Some(surface) if settings.model == LightingModel::PrimaryAndShadowRays => {
+            surface_shadow(medium, lights, world_directions, surface, settings.step, &mut result.shadow_lookups)
+        }
+        _ => Vec3::ONE,
+    };
+    (result, shadowed)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -419,6 +492,45 @@ mod tests {
             let a = run(LightingModel::AlphaCompositing);
             assert!((a.radiance - Vec3::splat(0.5) * (1.0 - t)).abs().max_element() < 1e-5);
         }
+    }
+
+    #[test]
+    fn a_surface_ray_stops_at_its_surface_and_takes_the_smokes_shadow() {
+        // a constant cube; the ray along x at height y ends on a surface at x = 0.4, lit
+        // from straight above and from the side (+x, in the surface's plane: no cosine)
+        let grid = DensityGrid::constant([4, 4, 4], 1.0).unwrap();
+        let m = medium(&grid, 2.0);
+        let lights = [
+            MarchLight { direction: Vec3::Y, irradiance: Vec3::new(4.0, 2.0, 1.0) },
+            MarchLight { direction: Vec3::X, irradiance: Vec3::splat(9.0) },
+        ];
+        let world = [Vec3::Y, Vec3::X];
+        let y = 0.3f32;
+        let surface = SurfacePoint { point: Vec3::new(0.4, y, 0.5), normal: Vec3::Y };
+        let ray =
+            SurfaceRay { origin: Vec3::new(-0.25, y, 0.5), direction: Vec3::X, limit: 0.65, surface: Some(surface) };
+        let settings = |model| MarchSettings { step: 0.01, model, threshold: 0.0, shade_empty: false };
+        let (r, shadowed) =
+            march_surface_ray(&m, &lights, &world, &ray, &settings(LightingModel::PrimaryAndShadowRays), true);
+        assert!((r.transmittance - (-2.0f32 * 0.4).exp()).abs() < 1e-5, "{}", r.transmittance);
+        // only the light above reaches the surface, through 1 - y of the medium
+        assert!((shadowed - Vec3::splat((-2.0 * (1.0 - y)).exp())).abs().max_element() < 1e-5, "{shadowed}");
+        for model in [LightingModel::AlphaCompositing, LightingModel::PrimaryRays] {
+            assert_eq!(march_surface_ray(&m, &lights, &world, &ray, &settings(model), true).1, Vec3::ONE);
+        }
+        // no medium: no shadow, exactly
+        let empty = DensityGrid::constant([4, 4, 4], 0.0).unwrap();
+        let m = medium(&empty, 2.0);
+        let (r, shadowed) =
+            march_surface_ray(&m, &lights, &world, &ray, &settings(LightingModel::PrimaryAndShadowRays), true);
+        assert_eq!((r.radiance, r.transmittance, shadowed), (Vec3::ZERO, 1.0, Vec3::ONE));
+        // a surface facing away from every light keeps its radiance
+        let away = SurfaceRay { surface: Some(SurfacePoint { normal: -Vec3::Y, ..surface }), ..ray };
+        let m = medium(&grid, 2.0);
+        assert_eq!(
+            march_surface_ray(&m, &lights, &world, &away, &settings(LightingModel::PrimaryAndShadowRays), true).1,
+            Vec3::ONE
+        );
     }
 
     #[test]

@@ -84,6 +84,14 @@ pub enum DeviceError {
         /// Cause.
         source: Box<FilterError>,
     },
+    /// The participating-media marcher could not be set up on the adapter.
+    #[error("GPU marcher on {adapter}: {source}")]
+    Marcher {
+        /// The adapter.
+        adapter: String,
+        /// Cause.
+        source: Box<GpuError>,
+    },
     /// Morphological antialiasing could not be set up on the adapter.
     #[error("GPU MLAA on {adapter}: {source}")]
     Antialias {

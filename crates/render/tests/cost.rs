@@ -141,10 +141,17 @@ fn the_tracer_error_falls_as_one_over_sqrt_spp_and_every_finest_setting_approach
         analytic[2].rmse.median, ss[0].rmse.median, ss[1].rmse.median
     );
     assert!(ss[1].rmse.median < analytic[2].rmse.median, "{ss:?} vs {:?}", analytic[2]);
-    // FLIP maps of the coarsest and finest settings beside the frames.
+    // FLIP maps of each knob's coarsest and finest settings beside the frames.
     let maps = dir.path().join("out/maps");
     assert!(maps.join("tracer-spp16-in16-f0000-r0-flip.png").exists());
     assert!(maps.join("tracer-spp1-in1-f0000-r0.png").exists());
+    let names: Vec<String> =
+        std::fs::read_dir(&maps).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    for knob_end in
+        ["analytic-intervals4-", "analytic-intervals64-", "analytic-supersampling2-", "analytic-supersampling4-"]
+    {
+        assert!(names.iter().any(|n| n.starts_with(knob_end) && n.ends_with("-flip.png")), "{knob_end}: {names:?}");
+    }
 }
 
 #[test]

@@ -5,7 +5,8 @@
 //! render a medium says so instead of leaving it out. The marcher method composites its f32
 //! march over the tracer's surfaces: byte for byte the tracer's frame without density, the
 //! closed form of an opaque medium, accelerations that change no byte, the smoke's shadow on
-//! the floor with shadow rays only, and agreement with the unbiased reference.
+//! the floor with shadow rays only, agreement with the unbiased reference, and the same frame
+//! from a GPU renderer (the GPU marcher) as from the CPU.
 
 #![allow(clippy::unwrap_used, reason = "test helpers fail the test by panicking")]
 
@@ -400,4 +401,51 @@ fn the_marcher_agrees_with_the_unbiased_reference_where_the_lights_are_many_and_
     let coarse = error(2, 4.0);
     assert!(fine < 0.04, "fine {fine}");
     assert!(coarse > 1.5 * fine, "coarse {coarse} fine {fine}");
+}
+
+#[test]
+fn the_marcher_on_a_gpu_renderer_composites_as_on_the_cpu() {
+    // The GPU renderer traces the surfaces with the GPU tracer (its twin is the CPU's wide
+    // tracer, 1e-4 apart) and marches on the GPU (its twin is `media::march`, 2e-3 apart in
+    // radiance): the frames agree per pixel within both, with a moving sphere over sub-frames.
+    let dir = tempfile::tempdir().unwrap();
+    let mut s = marcher_scene(4);
+    s.sphere.velocity = DVec3::new(1.5, 0.0, 0.0);
+    s.shutter = study::scene::Shutter { open: -1.0 / 60.0, close: 1.0 / 60.0 };
+    s.medium = Some(box_medium(dir.path(), &holed_blob(), 12.0, 0.9));
+    let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
+    let gpu = match Renderer::open(render::DeviceChoice::Gpu, &env) {
+        Ok(r) => r,
+        Err(e) => {
+            gpu::skip_or_fail("the_marcher_on_a_gpu_renderer_composites_as_on_the_cpu", &e);
+            return;
+        }
+    };
+    let cpu = Renderer::cpu(&env);
+    let surfaces =
+        cpu.render(&study::method::MethodSpec::default(), &FrameScene { medium: None, ..s.clone() }).unwrap();
+    for lighting in study::method::MarchLighting::ALL {
+        let settings =
+            study::method::MarcherSettings { lighting: Some(lighting), lights: Some(6), ..Default::default() };
+        let g = gpu.render(&marcher(settings.clone()), &s).unwrap();
+        let c = cpu.render(&marcher(settings), &s).unwrap();
+        let mut worst = (0.0f32, 0);
+        for (i, (p, q)) in g.image.pixels.iter().zip(&c.image.pixels).enumerate() {
+            for ch in 0..3 {
+                let d = (p[ch] - q[ch]).abs() / (1e-2 + q[ch].abs());
+                if d > worst.0 {
+                    worst = (d, i);
+                }
+            }
+        }
+        assert!(
+            worst.0 < 3e-3,
+            "{lighting:?}: pixel {}: GPU {:?} CPU {:?}",
+            worst.1,
+            g.image.pixels[worst.1],
+            c.image.pixels[worst.1]
+        );
+        let changed = c.image.pixels.iter().zip(&surfaces.image.pixels).filter(|(a, b)| a != b).count();
+        assert!(changed > 50, "{lighting:?}: the smoke should change the frame ({changed} pixels)");
+    }
 }

@@ -29,7 +29,8 @@ pub struct Args {
     /// Rendering device.
     #[arg(long, value_enum, default_value_t = DeviceArg::Auto)]
     pub device: DeviceArg,
-    /// Methods swept, comma-separated (tracer, accum, mcguire, guertin, analytic); default all.
+    /// Methods swept, comma-separated (tracer, accum, mcguire, guertin, analytic, marcher);
+    /// default all.
     #[arg(long, value_delimiter = ',')]
     pub methods: Vec<String>,
     /// Samples per pixel of the reference (its standard error must be below a tenth of the

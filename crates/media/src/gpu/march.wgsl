@@ -1,6 +1,9 @@
 // The thesis's ray marcher on the GPU (section 2.3): pass 1, the validity mask, finds each
 // pixel's first non-empty segment; pass 2 marches from there with the lighting model. The
 // CPU twin is `media::march` (first_segment, march); every step below follows it in order.
+// With `use_rays`, each pixel's ray comes from `rays` (a frame whose surfaces another
+// renderer made): the march stops at the ray's surface, and pass 2 also writes the smoke's
+// shadow on that surface (twin: `march_surface_ray`).
 
 struct Params {
     dims: vec3<u32>,
@@ -21,11 +24,30 @@ struct Params {
     use_distance: u32,
     shade_empty: u32,
     voxel_length: f32,
+    use_rays: u32,
 };
 
 struct Light {
     direction: vec4<f32>,
     irradiance: vec4<f32>,
+    // the direction in the world, for a surface's cosine
+    world: vec4<f32>,
+};
+
+// origin.w: the surface's ray parameter (NO_LIMIT: none); direction.w > 0: the surface's
+// shadow is wanted; point (cube's frame) and normal (world) of the surface.
+struct SurfaceRay {
+    origin: vec4<f32>,
+    direction: vec4<f32>,
+    point: vec4<f32>,
+    normal: vec4<f32>,
+};
+
+struct Primary {
+    origin: vec3<f32>,
+    direction: vec3<f32>,
+    enter: f32,
+    exit: f32,
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -34,6 +56,8 @@ struct Light {
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(4) var<storage, read_write> mask: array<i32>;
 @group(0) @binding(5) var<storage, read_write> result: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read> rays: array<SurfaceRay>;
+@group(0) @binding(7) var<storage, read_write> surface_shadow: array<vec4<f32>>;
 
 const MODEL_ALPHA: u32 = 0u;
 const MODEL_PRIMARY: u32 = 1u;
@@ -133,23 +157,54 @@ fn shadow(p: vec3<f32>, direction: vec3<f32>) -> f32 {
     return exp(-depth);
 }
 
+// The pixel's ray and the part of it inside the cube (before its surface); exit <= enter
+// when that is empty.
+fn primary(pixel: u32, x: u32, y: u32) -> Primary {
+    var origin = params.eye;
+    var direction = pixel_ray(x, y);
+    var limit = NO_LIMIT;
+    if (params.use_rays != 0u) {
+        origin = rays[pixel].origin.xyz;
+        direction = rays[pixel].direction.xyz;
+        limit = rays[pixel].origin.w;
+    }
+    let span = cube_interval(origin, direction);
+    return Primary(origin, direction, span.x, min(span.y, limit));
+}
+
+// The smoke's shadow on a surface: the lights' irradiance through the medium over that
+// without it, per channel, 1 where no light reaches the surface's side.
+fn shadow_on_surface(ray: SurfaceRay) -> vec3<f32> {
+    var lit = vec3<f32>(0.0);
+    var unlit = vec3<f32>(0.0);
+    for (var n = 0u; n < params.light_count; n++) {
+        let cosine = dot(ray.normal.xyz, lights[n].world.xyz);
+        if (cosine <= 0.0) {
+            continue;
+        }
+        let e = lights[n].irradiance.xyz * cosine;
+        unlit += e;
+        lit += e * shadow(ray.point.xyz, lights[n].direction.xyz);
+    }
+    return select(vec3<f32>(1.0), lit / unlit, unlit > vec3<f32>(0.0));
+}
+
 @compute @workgroup_size(8, 8)
 fn validity_mask(@builtin(global_invocation_id) id: vec3<u32>) {
     if (id.x >= params.width || id.y >= params.height) {
         return;
     }
     let pixel = id.x + params.width * id.y;
-    let direction = pixel_ray(id.x, id.y);
-    let span = cube_interval(params.eye, direction);
+    let ray = primary(pixel, id.x, id.y);
     var first = -1;
-    if (span.y > span.x) {
-        var i = u32(floor(span.x / params.step));
+    if (ray.exit > ray.enter) {
+        var i = u32(floor(ray.enter / params.step));
         loop {
-            let s = segment(i, span.x, span.y);
+            let s = segment(i, ray.enter, ray.exit);
             if (!(s.y > 0.0)) {
                 break;
             }
-            let p = params.eye + s.x * direction;
+            let p = ray.origin + s.x * ray.direction;
             let rho = density(p);
             if (rho > params.threshold) {
                 first = i32(i);
@@ -167,15 +222,22 @@ fn march(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let pixel = id.x + params.width * id.y;
+    // the surface's shadow first: a surface in the smoke's shadow may be seen through no smoke
+    if (params.use_rays != 0u) {
+        var shadowed = vec3<f32>(1.0);
+        if (params.model == MODEL_SHADOW && rays[pixel].direction.w > 0.0) {
+            shadowed = shadow_on_surface(rays[pixel]);
+        }
+        surface_shadow[pixel] = vec4<f32>(shadowed, 1.0);
+    }
     var radiance = vec3<f32>(0.0);
     var transmittance = 1.0;
-    let direction = pixel_ray(id.x, id.y);
-    let span = cube_interval(params.eye, direction);
-    if (!(span.y > span.x)) {
+    let ray = primary(pixel, id.x, id.y);
+    if (!(ray.exit > ray.enter)) {
         result[pixel] = vec4<f32>(radiance, transmittance);
         return;
     }
-    var i = u32(floor(span.x / params.step));
+    var i = u32(floor(ray.enter / params.step));
     if (params.use_mask != 0u) {
         let first = mask[pixel];
         if (first < 0) {
@@ -190,11 +252,11 @@ fn march(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     unshadowed *= params.albedo / (4.0 * PI);
     loop {
-        let s = segment(i, span.x, span.y);
+        let s = segment(i, ray.enter, ray.exit);
         if (!(s.y > 0.0)) {
             break;
         }
-        let p = params.eye + s.x * direction;
+        let p = ray.origin + s.x * ray.direction;
         let rho = density(p);
         let sigma = params.sigma_t * rho;
         if (sigma > 0.0 || params.shade_empty != 0u) {

@@ -1,12 +1,16 @@
 //! The marcher's host side: [`GpuMarcher`] compiles `march.wgsl`'s two entry points once per
 //! device (the validity mask and the march), uploads a medium as a [`GpuVolume`] (density and
-//! distance map, 8 bytes a voxel: 16.8 MB for a 128^3 grid), and renders an image, timed
-//! as one submission. The CPU twin is [`crate::march::march_image`].
+//! distance map, 8 bytes a voxel: 16.8 MB for a 128^3 grid), and renders an image through a
+//! pinhole camera ([`GpuMarcher::render`]; CPU twin [`crate::march::march_image`]) or along
+//! given per-pixel rays that end on surfaces ([`GpuMarcher::render_rays`]; CPU twin
+//! [`crate::march::march_surface_ray`]), each timed as one submission.
 
 use gpu::wgpu::util::DeviceExt as _;
 use gpu::{GpuContext, GpuError, GpuInfo, TimingSource, wgpu};
 
-use crate::march::{LightingModel, MarchLight, MarchMedium, MarchSettings, NO_LIMIT, PixelCamera};
+use glam::Vec3;
+
+use crate::march::{LightingModel, MarchLight, MarchMedium, MarchSettings, NO_LIMIT, PixelCamera, SurfaceRay};
 
 /// The passes' WGSL.
 pub const MARCH_WGSL: &str = include_str!("march.wgsl");
@@ -34,7 +38,8 @@ struct Params {
     use_distance: u32,
     shade_empty: u32,
     voxel_length: f32,
-    _pad: [u32; 2],
+    use_rays: u32,
+    _pad: u32,
 }
 
 #[repr(C)]
@@ -42,6 +47,32 @@ struct Params {
 struct Light {
     direction: [f32; 4],
     irradiance: [f32; 4],
+    world: [f32; 4],
+}
+
+/// [`SurfaceRay`] as the WGSL reads it.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct GpuRay {
+    origin: [f32; 4],
+    direction: [f32; 4],
+    point: [f32; 4],
+    normal: [f32; 4],
+}
+
+impl GpuRay {
+    fn new(r: &SurfaceRay) -> Self {
+        let (point, normal, wanted) = match &r.surface {
+            Some(s) => (s.point, s.normal, 1.0),
+            None => (Vec3::ZERO, Vec3::ZERO, 0.0),
+        };
+        GpuRay {
+            origin: r.origin.extend(r.limit.min(NO_LIMIT)).to_array(),
+            direction: r.direction.extend(wanted).to_array(),
+            point: point.extend(0.0).to_array(),
+            normal: normal.extend(0.0).to_array(),
+        }
+    }
 }
 
 /// A medium's grids on the device.
@@ -66,6 +97,9 @@ pub struct GpuMarch {
     pub pixels: Vec<[f32; 4]>,
     /// Per pixel: the validity mask's first segment, -1 for none (all -1 without the mask).
     pub mask: Vec<i32>,
+    /// Per pixel of [`GpuMarcher::render_rays`]: the smoke's shadow on the ray's surface
+    /// (RGB; 1 without a surface or shadow rays); empty for [`GpuMarcher::render`].
+    pub surface_shadow: Vec<[f32; 3]>,
     /// The passes' time.
     pub seconds: f64,
     /// The clock `seconds` read.
@@ -118,6 +152,8 @@ impl GpuMarcher {
                 storage(3, true),
                 storage(4, false),
                 storage(5, false),
+                storage(6, true),
+                storage(7, false),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -183,18 +219,55 @@ impl GpuMarcher {
         settings: &MarchSettings,
         use_mask: bool,
     ) -> Result<GpuMarch, GpuError> {
-        let device = &self.ctx.device;
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let params = Params {
+        let mut params = Self::params(volume, medium, lights, settings, (width, height), use_mask);
+        (params.eye, params.corner, params.du, params.dv) =
+            (camera.eye.to_array(), camera.corner.to_array(), camera.du.to_array(), camera.dv.to_array());
+        let directions: Vec<Vec3> = lights.iter().map(|l| l.direction).collect();
+        self.dispatch(&params, volume, lights, &directions, None)
+    }
+
+    /// Marches `rays` (one per pixel of a `width x height` image, row by row) of `volume`
+    /// up to their surfaces, with the smoke's shadow on those surfaces; `world_directions[n]`
+    /// is light `n`'s direction in the world (for the surfaces' cosine).
+    #[allow(clippy::too_many_arguments)]
+    pub fn render_rays(
+        &self,
+        volume: &GpuVolume,
+        medium: &MarchMedium,
+        lights: &[MarchLight],
+        world_directions: &[Vec3],
+        rays: &[SurfaceRay],
+        (width, height): (u32, u32),
+        settings: &MarchSettings,
+        use_mask: bool,
+    ) -> Result<GpuMarch, GpuError> {
+        assert_eq!(rays.len() as u64, u64::from(width) * u64::from(height), "one ray per pixel");
+        assert_eq!(world_directions.len(), lights.len(), "one world direction per light");
+        let mut params = Self::params(volume, medium, lights, settings, (width, height), use_mask);
+        params.use_rays = 1;
+        let rays: Vec<GpuRay> = rays.iter().map(GpuRay::new).collect();
+        self.dispatch(&params, volume, lights, world_directions, Some(&rays))
+    }
+
+    /// The passes' parameters without a camera.
+    fn params(
+        volume: &GpuVolume,
+        medium: &MarchMedium,
+        lights: &[MarchLight],
+        settings: &MarchSettings,
+        (width, height): (u32, u32),
+        use_mask: bool,
+    ) -> Params {
+        Params {
             dims: volume.dims,
             light_count: lights.len() as u32,
-            eye: camera.eye.to_array(),
+            eye: [0.0; 3],
             step: settings.step,
-            corner: camera.corner.to_array(),
+            corner: [0.0; 3],
             sigma_t: medium.sigma_t,
-            du: camera.du.to_array(),
+            du: [0.0; 3],
             albedo: medium.albedo,
-            dv: camera.dv.to_array(),
+            dv: [0.0; 3],
             threshold: settings.threshold,
             alpha_colour: medium.alpha_colour.to_array(),
             model: match settings.model {
@@ -208,22 +281,39 @@ impl GpuMarcher {
             use_distance: u32::from(volume.has_distance),
             shade_empty: u32::from(settings.shade_empty),
             voxel_length: medium.voxel_length,
-            _pad: [0; 2],
-        };
+            use_rays: 0,
+            _pad: 0,
+        }
+    }
+
+    /// Runs the passes of `params` (the mask's only where it asks) and reads the results.
+    fn dispatch(
+        &self,
+        params: &Params,
+        volume: &GpuVolume,
+        lights: &[MarchLight],
+        world_directions: &[Vec3],
+        rays: Option<&[GpuRay]>,
+    ) -> Result<GpuMarch, GpuError> {
+        let device = &self.ctx.device;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let (width, height, use_mask) = (params.width, params.height, params.use_mask != 0);
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("march params"),
-            contents: bytemuck::bytes_of(&params),
+            contents: bytemuck::bytes_of(params),
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let mut gpu_lights: Vec<Light> = lights
             .iter()
-            .map(|l| Light {
+            .zip(world_directions)
+            .map(|(l, w)| Light {
                 direction: l.direction.extend(0.0).to_array(),
                 irradiance: l.irradiance.extend(0.0).to_array(),
+                world: w.extend(0.0).to_array(),
             })
             .collect();
         if gpu_lights.is_empty() {
-            gpu_lights.push(Light { direction: [0.0; 4], irradiance: [0.0; 4] }); // a binding is never empty
+            gpu_lights.push(Light { direction: [0.0; 4], irradiance: [0.0; 4], world: [0.0; 4] }); // a binding is never empty
         }
         let light_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("march lights"),
@@ -242,6 +332,20 @@ impl GpuMarcher {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        let zero_ray = [GpuRay { origin: [0.0; 4], direction: [0.0; 4], point: [0.0; 4], normal: [0.0; 4] }];
+        let ray_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("march rays"),
+            contents: bytemuck::cast_slice(rays.unwrap_or(&zero_ray)),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        // written only with rays; a binding is never empty
+        let shadow_pixels = if rays.is_some() { pixels } else { 1 };
+        let surface = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("march surface shadow"),
+            size: shadow_pixels * 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("march"),
             layout: &self.march.get_bind_group_layout(0),
@@ -252,6 +356,8 @@ impl GpuMarcher {
                 wgpu::BindGroupEntry { binding: 3, resource: light_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 4, resource: mask.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 5, resource: output.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: ray_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 7, resource: surface.as_entire_binding() },
             ],
         });
         let (gx, gy) = (width.div_ceil(WORKGROUP), height.div_ceil(WORKGROUP));
@@ -271,6 +377,10 @@ impl GpuMarcher {
         }
         let pixels: Vec<[f32; 4]> = self.ctx.read_buffer_as(&output, ..)?;
         let mask: Vec<i32> = self.ctx.read_buffer_as(&mask, ..)?;
-        Ok(GpuMarch { pixels, mask, seconds: timing.seconds, timing_source: timing.source })
+        let surface_shadow = match rays {
+            Some(_) => self.ctx.read_buffer_as::<[f32; 4]>(&surface, ..)?.iter().map(|p| [p[0], p[1], p[2]]).collect(),
+            None => Vec::new(),
+        };
+        Ok(GpuMarch { pixels, mask, surface_shadow, seconds: timing.seconds, timing_source: timing.source })
     }
 }

@@ -21,8 +21,9 @@
 //!   in `OUT/reference/` and each point in `OUT/points/KEY.json` as soon as it is measured
 //!   (atomic writes); a rerun keeps what is there and measures only what is missing, so a
 //!   killed sweep continues and its table is the uninterrupted one's.
-//! - FLIP error maps of each method's coarsest and finest setting (frame of the first
-//!   listed frame, first repetition) go to `OUT/maps/` beside the frames and the reference.
+//! - FLIP error maps of each knob's coarsest and finest setting and of every lighting model
+//!   of the marcher (frame of the first listed frame, first repetition) go to `OUT/maps/`
+//!   beside the frames and the reference.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -36,6 +37,7 @@ use study::ids::{Cell, Factor, StimulusId, View};
 use study::method::antialias::{
     DEFAULT_MLAA_SEARCH_DISTANCE, SWEEP_KNOB_SEARCH_DISTANCE, SWEEP_KNOB_THRESHOLD, mlaa_sweep,
 };
+use study::method::marcher::SWEEP_KNOB_LIGHTING;
 use study::method::{MethodSpec, SweepSetting as Setting};
 use study::scene::FrameScene;
 use study::seed::mix;
@@ -472,10 +474,16 @@ pub fn run_cost(
         for (_, s) in &settings {
             for (i, setting) in s.iter().enumerate() {
                 for rep in 0..request.repetitions {
-                    // Maps of the coarsest and finest settings, and of MLAA at its defaults.
+                    // Maps of each knob's coarsest and finest settings (of the method's
+                    // finest too), of every lighting model of the marcher, and of MLAA at its
+                    // defaults.
                     let mlaa_default =
                         setting.knob == SWEEP_KNOB_SEARCH_DISTANCE && setting.value == DEFAULT_MLAA_SEARCH_DISTANCE;
-                    let map = frame == frames[0] && rep == 0 && (i == 0 || Some(i) == finest(s) || mlaa_default);
+                    let knob_end = s.iter().position(|x| x.knob == setting.knob) == Some(i)
+                        || s.iter().rposition(|x| x.knob == setting.knob) == Some(i);
+                    let map = frame == frames[0]
+                        && rep == 0
+                        && (knob_end || Some(i) == finest(s) || mlaa_default || setting.knob == SWEEP_KNOB_LIGHTING);
                     let item = (frame, setting.clone(), rep, map);
                     if !order.iter().any(|o| o.0 == item.0 && o.1 == item.1 && o.2 == item.2) {
                         order.push(item);

@@ -4,7 +4,8 @@
 //! first surface and composited over them. Its settings: the lighting model of the thesis's
 //! figure 2.3, the step in voxels, the lights of the environment's constellation, the two
 //! accelerations (which change the work, never the image) and the sub-frames the medium is
-//! averaged over while the shutter is open. Its cost knobs are the lights and the step.
+//! averaged over while the shutter is open. Its cost knobs are the lighting model, the
+//! lights (of the two models that have lights) and the step.
 
 use serde::{Deserialize, Serialize};
 
@@ -50,6 +51,11 @@ pub const SWEEP_LIGHTS: [u32; 6] = [1, 2, 4, 8, 16, 32];
 pub const SWEEP_SLICES_PER_4_VOXELS: [u32; 5] = [1, 2, 4, 8, 16];
 /// The cost sweep's knob for the step.
 pub const SWEEP_KNOB_STEP: &str = "slices_per_4_voxels";
+/// The cost sweep's knob for the lighting model: value `i + 1` is [`MarchLighting::ALL`]`[i]`.
+pub const SWEEP_KNOB_LIGHTING: &str = "lighting";
+/// The cost sweep's knob for the lights of the model without shadow rays (knob `lights`
+/// turns them in the full model).
+pub const SWEEP_KNOB_PRIMARY_LIGHTS: &str = "primary_lights";
 
 /// `[method] kind = "marcher"`.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -88,7 +94,7 @@ defaults!(MarcherSettings {
 impl MethodSettings for MarcherSettings {
     const KEYS: &'static [&'static str] =
         &["lighting", "step", "lights", "validity_mask", "distance_map", "sub_frames"];
-    const CURVE_INPUT: CurveInput = CurveInput::Ignored;
+    const CURVE_INPUT: CurveInput = CurveInput::Each;
 
     fn from_table(t: &MethodTable) -> Self {
         MarcherSettings {
@@ -122,32 +128,55 @@ impl MethodSettings for MarcherSettings {
         FrameWork::samples(spp)
     }
 
-    /// The lights at the default step, then the step at the default lights; the surfaces at
-    /// the preset's highest sampling level up to `max_spp`.
+    /// The three lighting models at the defaults, the lights of the primary-rays model, the
+    /// lights of the full model, then its step; the surfaces at the preset's highest
+    /// sampling level up to `max_spp`. The last (the finest step) is the most expensive.
     fn sweep(preset: &Preset, max_spp: u32) -> Vec<SweepSetting> {
         let input_spp = super::sweep_levels(preset, max_spp).last().copied().unwrap_or(max_spp.max(1));
-        let lights = SWEEP_LIGHTS.iter().map(|&n| SweepSetting {
-            spec: super::MethodSpec::Marcher(MarcherSettings { lights: Some(n), ..MarcherSettings::default() }),
-            knob: "lights",
-            value: n,
+        let setting = |knob: &'static str, value: u32, settings: MarcherSettings| SweepSetting {
+            spec: super::MethodSpec::Marcher(settings),
+            knob,
+            value,
             input_spp,
             antialias: None,
+        };
+        let models = (1..).zip(MarchLighting::ALL).map(|(value, lighting)| {
+            setting(SWEEP_KNOB_LIGHTING, value, MarcherSettings { lighting: Some(lighting), ..Default::default() })
         });
-        let steps = SWEEP_SLICES_PER_4_VOXELS.iter().map(|&v| SweepSetting {
-            spec: super::MethodSpec::Marcher(MarcherSettings {
-                step: Some(4.0 / f64::from(v)),
-                ..MarcherSettings::default()
-            }),
-            knob: SWEEP_KNOB_STEP,
-            value: v,
-            input_spp,
-            antialias: None,
+        let primary_lights = SWEEP_LIGHTS.iter().map(|&n| {
+            let settings =
+                MarcherSettings { lighting: Some(MarchLighting::Primary), lights: Some(n), ..Default::default() };
+            setting(SWEEP_KNOB_PRIMARY_LIGHTS, n, settings)
         });
-        lights.chain(steps).collect()
+        let lights = SWEEP_LIGHTS
+            .iter()
+            .map(|&n| setting("lights", n, MarcherSettings { lights: Some(n), ..Default::default() }));
+        let steps = SWEEP_SLICES_PER_4_VOXELS.iter().map(|&v| {
+            setting(SWEEP_KNOB_STEP, v, MarcherSettings { step: Some(4.0 / f64::from(v)), ..Default::default() })
+        });
+        models.chain(primary_lights).chain(lights).chain(steps).collect()
+    }
+
+    /// Rays marched per pixel (the primary ray, and a shadow ray per light in the full
+    /// model) times the slices per 4 voxels: the march's work, not the surfaces'.
+    fn work_units(knob: &str, value: u32, _input_spp: u32) -> u64 {
+        let defaults = MarcherSettings::default();
+        let slices = (4.0 / defaults.step()).round() as u64;
+        let full = 1 + u64::from(defaults.lights());
+        match knob {
+            SWEEP_KNOB_LIGHTING if value == 3 => full * slices,
+            SWEEP_KNOB_LIGHTING | SWEEP_KNOB_PRIMARY_LIGHTS => slices,
+            SWEEP_KNOB_STEP => full * u64::from(value),
+            _ => (1 + u64::from(value)) * slices,
+        }
     }
 
     fn curve_label(knob: &str, input_spp: u32) -> String {
         match knob {
+            SWEEP_KNOB_LIGHTING => {
+                format!("marcher (lighting: 1 alpha, 2 primary, 3 primary + shadow; {input_spp} spp surfaces)")
+            }
+            SWEEP_KNOB_PRIMARY_LIGHTS => format!("marcher (lights, primary rays only, {input_spp} spp surfaces)"),
             "lights" => format!("marcher (lights, {input_spp} spp surfaces)"),
             _ => format!("marcher (slices per 4 voxels, {input_spp} spp surfaces)"),
         }
@@ -207,5 +236,31 @@ mod tests {
             })
             .collect();
         assert_eq!(steps, [4.0, 2.0, 1.0, 0.5, 0.25]);
+        let models: Vec<(u32, MarchLighting)> = sweep
+            .iter()
+            .filter_map(|s| match &s.spec {
+                MethodSpec::Marcher(m) if s.knob == SWEEP_KNOB_LIGHTING => Some((s.value, m.lighting())),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(
+            models,
+            [(1, MarchLighting::AlphaCompositing), (2, MarchLighting::Primary), (3, MarchLighting::PrimaryAndShadow)]
+        );
+        let primary: Vec<(u32, u32, MarchLighting)> = sweep
+            .iter()
+            .filter_map(|s| match &s.spec {
+                MethodSpec::Marcher(m) if s.knob == SWEEP_KNOB_PRIMARY_LIGHTS => {
+                    Some((s.value, m.lights(), m.lighting()))
+                }
+                _ => None,
+            })
+            .collect();
+        assert_eq!(primary, SWEEP_LIGHTS.map(|n| (n, n, MarchLighting::Primary)));
+        let work = |knob, value| MarcherSettings::work_units(knob, value, 16);
+        assert_eq!([work(SWEEP_KNOB_LIGHTING, 1), work(SWEEP_KNOB_LIGHTING, 3), work("lights", 4)], [4, 68, 20]);
+        assert_eq!([work(SWEEP_KNOB_PRIMARY_LIGHTS, 32), work(SWEEP_KNOB_STEP, 16)], [4, 272]);
+        // The finest step comes last: the cost sweep checks its reference against it first.
+        assert_eq!((sweep.last().map(|s| s.knob), sweep.last().map(|s| s.value)), (Some(SWEEP_KNOB_STEP), Some(16)));
     }
 }

@@ -1,5 +1,6 @@
-//! The medium composited over the tracer's surfaces, one eye at a time, on the CPU: the
-//! f32 marcher of `media::march` (the CPU twin of `march.wgsl`) along each pixel's centre ray.
+//! The medium composited over the tracer's surfaces, one eye at a time: the f32 marcher
+//! along each pixel's centre ray, on the renderer's GPU (`media::gpu::GpuMarcher::render_rays`)
+//! or on the CPU (`media::march::march_surface_ray`, its twin).
 //!
 //! Rays are marched in the grid box's unit-cube coordinates with directions scaled by the
 //! inverse box size but not renormalised, so that ray lengths, the step and the extinction
@@ -21,7 +22,10 @@
 
 use glam::{DVec2, DVec3, Vec3};
 use media::constellation::{Constellation, DirectionalLight};
-use media::march::{LightingModel, MarchLight, MarchMedium, MarchSettings, march_to, shadow};
+use media::gpu::{GpuMarcher, GpuVolume};
+use media::march::{
+    LightingModel, MarchLight, MarchMedium, MarchSettings, NO_LIMIT, SurfacePoint, SurfaceRay, march_surface_ray,
+};
 use media::{DensityGrid, DistanceMap};
 use rayon::prelude::*;
 use study::medium::SceneMedium;
@@ -95,6 +99,11 @@ impl Instant {
         }
     }
 
+    /// The instant's grids on `marcher`'s device.
+    pub fn upload(&self, marcher: &GpuMarcher) -> GpuVolume {
+        marcher.upload(&self.march_medium(Vec3::ZERO))
+    }
+
     /// The medium as the marcher sees it.
     fn march_medium(&self, alpha_colour: Vec3) -> MarchMedium<'_> {
         MarchMedium {
@@ -122,7 +131,7 @@ impl Instant {
 /// (for the surfaces' shadow), and the grey of alpha compositing.
 struct Lights {
     march: Vec<MarchLight>,
-    world: Vec<DirectionalLight>,
+    world: Vec<Vec3>,
     alpha_colour: Vec3,
 }
 
@@ -145,7 +154,11 @@ fn lights_for(instant: &Instant, constellation: &Constellation, model: LightingM
         .collect();
     let total: DVec3 = constellation.lights.iter().map(|l| l.irradiance).sum();
     let grey = f64::from(instant.albedo) * luminance(total) / (4.0 * std::f64::consts::PI);
-    Lights { march, world, alpha_colour: Vec3::splat(grey as f32) }
+    Lights {
+        march,
+        world: world.iter().map(|l| l.direction.as_vec3()).collect(),
+        alpha_colour: Vec3::splat(grey as f32),
+    }
 }
 
 /// What the medium does to one eye's pixels at one instant.
@@ -158,13 +171,35 @@ pub struct PixelMedium {
     pub surface_weight: Vec3,
 }
 
-/// The medium over every pixel of `camera` at one instant.
+/// Each pixel's centre ray of `camera` in the box's frame, up to its first surface at the
+/// instant.
+fn eye_rays(instant: &Instant, camera: &Camera) -> Vec<SurfaceRay> {
+    let rays = CameraRays::new(camera);
+    let (w, h) = (camera.width, camera.height);
+    (0..w * h)
+        .into_par_iter()
+        .map(|n| {
+            let ray = rays.ray(DVec2::new(f64::from(n % w) + 0.5, f64::from(n / w) + 0.5));
+            let hit = instant.geometry.intersect(&ray, None);
+            SurfaceRay {
+                origin: instant.point_to_box(ray.origin),
+                direction: instant.to_box(ray.dir),
+                limit: hit.map_or(NO_LIMIT, |h| (h.t as f32).min(NO_LIMIT)),
+                surface: hit.map(|h| SurfacePoint { point: instant.point_to_box(h.point), normal: h.normal.as_vec3() }),
+            }
+        })
+        .collect()
+}
+
+/// The medium over every pixel of `camera` at one instant, on `gpu` where given (the
+/// instant's grids uploaded once per call), else on the CPU.
 pub fn march_eye(
     instant: &Instant,
     camera: &Camera,
     constellation: &Constellation,
     settings: &MarcherSettings,
-) -> Vec<PixelMedium> {
+    gpu: Option<(&GpuMarcher, &GpuVolume)>,
+) -> Result<(Vec<PixelMedium>, Option<f64>), gpu::GpuError> {
     let model = lighting_model(settings.lighting());
     let lights = lights_for(instant, constellation, model);
     let medium = instant.march_medium(lights.alpha_colour);
@@ -174,51 +209,52 @@ pub fn march_eye(
         threshold: 0.0,
         shade_empty: false,
     };
-    let rays = CameraRays::new(camera);
-    let (w, h) = (camera.width, camera.height);
-    (0..w * h)
-        .into_par_iter()
-        .map(|n| {
-            let ray = rays.ray(DVec2::new(f64::from(n % w) + 0.5, f64::from(n / w) + 0.5));
-            let hit = instant.geometry.intersect(&ray, None);
-            let limit = hit.map_or(f32::INFINITY, |h| h.t as f32);
-            let primary = (instant.point_to_box(ray.origin), instant.to_box(ray.dir), limit);
-            let r = march_to(&medium, &lights.march, primary, &march, settings.validity_mask());
-            let shadowed = match hit {
-                Some(hit) if model == LightingModel::PrimaryAndShadowRays => {
-                    surface_shadow(instant, &medium, &lights, hit.point, hit.normal, march.step)
-                }
-                _ => Vec3::ONE,
-            };
-            PixelMedium { radiance: r.radiance, surface_weight: shadowed * r.transmittance }
-        })
-        .collect()
-}
-
-/// The smoke's shadow on a surface point: the constellation's irradiance through the medium
-/// over that without it, per channel (1 where no light reaches the surface's side).
-fn surface_shadow(
-    instant: &Instant,
-    medium: &MarchMedium,
-    lights: &Lights,
-    point: DVec3,
-    normal: DVec3,
-    step: f32,
-) -> Vec3 {
-    let p = instant.point_to_box(point);
-    let (mut lit, mut unlit) = (DVec3::ZERO, DVec3::ZERO);
-    let mut lookups = 0;
-    for (light, world) in lights.march.iter().zip(&lights.world) {
-        let cosine = normal.dot(world.direction);
-        if cosine <= 0.0 {
-            continue;
+    let rays = eye_rays(instant, camera);
+    let pixel = |(r, shadowed): (media::MarchResult, Vec3)| PixelMedium {
+        radiance: r.radiance,
+        surface_weight: shadowed * r.transmittance,
+    };
+    match gpu {
+        Some((marcher, volume)) => {
+            let size = (camera.width, camera.height);
+            let out = marcher.render_rays(
+                volume,
+                &medium,
+                &lights.march,
+                &lights.world,
+                &rays,
+                size,
+                &march,
+                settings.validity_mask(),
+            )?;
+            let pixels = out
+                .pixels
+                .iter()
+                .zip(&out.surface_shadow)
+                .map(|(p, s)| PixelMedium {
+                    radiance: Vec3::new(p[0], p[1], p[2]),
+                    surface_weight: Vec3::from_array(*s) * p[3],
+                })
+                .collect();
+            Ok((pixels, Some(out.seconds)))
         }
-        let e = world.irradiance * cosine;
-        unlit += e;
-        lit += e * f64::from(shadow(medium, p, light.direction, step, &mut lookups));
+        None => {
+            let pixels = rays
+                .par_iter()
+                .map(|ray| {
+                    pixel(march_surface_ray(
+                        &medium,
+                        &lights.march,
+                        &lights.world,
+                        ray,
+                        &march,
+                        settings.validity_mask(),
+                    ))
+                })
+                .collect();
+            Ok((pixels, None))
+        }
     }
-    let ratio = |l: f64, u: f64| if u > 0.0 { (l / u) as f32 } else { 1.0 };
-    Vec3::new(ratio(lit.x, unlit.x), ratio(lit.y, unlit.y), ratio(lit.z, unlit.z))
 }
 
 /// Composites the medium of every instant over one eye's surfaces: `S mean(w_k) + mean(L_k)`

@@ -4,19 +4,20 @@
 //! over them under the environment's light constellation ([`composite`]). A scene without a
 //! medium is the tracer's frame, byte for byte.
 //!
-//! The march runs on the CPU with `media::march`, the f32 twin of `media`'s WGSL marcher, on
-//! every device: the GPU marcher (`media::gpu`) renders the thesis's Table 2.1 benchmark,
-//! not yet this method's frames (it has no depth limit per pixel nor the surfaces' shadow).
+//! The march runs on the renderer's GPU where it has one (`media::gpu::GpuMarcher`, the
+//! WGSL marcher given each pixel's ray up to its surface), else on the CPU with its f32 twin
+//! (`media::march`).
 
 pub mod composite;
 
+use media::gpu::GpuMarcher;
 use study::method::MarcherSettings;
 use study::scene::FrameScene;
 
 use super::tracer::trace;
 use super::{GpuHosts, RenderMethod};
 use crate::method::{RenderError, RenderedFrame, compose_eyes};
-use crate::renderer::{DeviceError, Renderer, Submitted};
+use crate::renderer::{DeviceError, Renderer, Submitted, add_seconds};
 use crate::volume::grids_for;
 
 /// The marcher.
@@ -26,8 +27,11 @@ impl RenderMethod for Marcher {
     type Settings = MarcherSettings;
     const NESTED: bool = false;
 
-    fn open_gpu(_: &mut GpuHosts) -> Result<(), DeviceError> {
-        Ok(())
+    fn open_gpu(hosts: &mut GpuHosts) -> Result<(), DeviceError> {
+        hosts.open(|h| {
+            GpuMarcher::new(h.ctx().clone())
+                .map_err(|e| DeviceError::Marcher { adapter: h.ctx().info.short(), source: Box::new(e) })
+        })
     }
 
     fn submit<'r>(
@@ -38,6 +42,7 @@ impl RenderMethod for Marcher {
     ) -> Result<Submitted<'r>, RenderError> {
         let surfaces = FrameScene { medium: None, ..scene.clone() };
         let traced = trace(renderer, &surfaces)?;
+        let mut gpu_seconds = traced.gpu_seconds;
         let eyes = match &scene.medium {
             None => traced.eyes,
             Some(medium) => {
@@ -46,29 +51,28 @@ impl RenderMethod for Marcher {
                     .env()
                     .light_constellation(settings.lights() as usize)
                     .map_err(|e| RenderError::Settings(format!("lights: {e}")))?;
-                let instants: Vec<composite::Instant> = composite::instants(scene, settings.sub_frames())
-                    .into_iter()
-                    .map(|t| composite::Instant::new(scene, medium, &grids, t, settings.distance_map()))
-                    .collect();
-                traced
-                    .eyes
-                    .iter()
-                    .zip(&scene.views)
-                    .map(|(image, view)| {
-                        let per_instant: Vec<_> = instants
-                            .iter()
-                            .map(|i| composite::march_eye(i, &view.camera, &constellation, settings))
-                            .collect();
-                        composite::composite(image, &per_instant)
-                    })
-                    .collect()
+                let marcher = renderer.gpu_host::<GpuMarcher>();
+                let mut per_eye: Vec<Vec<Vec<composite::PixelMedium>>> = vec![Vec::new(); scene.views.len()];
+                for t in composite::instants(scene, settings.sub_frames()) {
+                    let instant = composite::Instant::new(scene, medium, &grids, t, settings.distance_map());
+                    let volume = marcher.map(|m| instant.upload(m));
+                    for (eye, view) in per_eye.iter_mut().zip(&scene.views) {
+                        let gpu = marcher.zip(volume.as_ref());
+                        let (pixels, seconds) =
+                            composite::march_eye(&instant, &view.camera, &constellation, settings, gpu)
+                                .map_err(|e| RenderError::Gpu(format!("the GPU marcher: {e}")))?;
+                        gpu_seconds = add_seconds(gpu_seconds, seconds);
+                        eye.push(pixels);
+                    }
+                }
+                traced.eyes.iter().zip(&per_eye).map(|(image, eye)| composite::composite(image, eye)).collect()
             }
         };
         Ok(Submitted::Ready(vec![RenderedFrame {
             image: compose_eyes(eyes),
             nonfinite_samples: traced.nonfinite_samples,
             camera_samples: traced.camera_samples,
-            gpu_seconds: traced.gpu_seconds,
+            gpu_seconds,
         }]))
     }
 }
