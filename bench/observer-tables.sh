@@ -3,17 +3,21 @@
 # own settings (issue 25): the full preset's 640x360 frames and 4-512 samples per pixel, over
 # one second from the middle of each sequence (the design's `clip` preset, frames 45-74).
 #
-#   bench/observer-tables.sh mono                # phase 1: the two mono tables, both references
-#   bench/observer-tables.sh choose              # the rule: the reference with the higher mean
-#                                                # Spearman over the two mono tables (tie: eye)
+#   bench/observer-tables.sh mono                # phase 1: the two mono tables, each reference
+#                                                # in $REFS (default: eye shutter sharp) and FLIP
+#   bench/observer-tables.sh choose              # the rule: the reference with the highest mean
+#                                                # Spearman over the two mono tables, among those
+#                                                # measured (a tie goes to the one listed first:
+#                                                # eye, shutter, sharp)
 #   bench/observer-tables.sh stereo REFERENCE    # phase 2: the three stereo tables, held out,
-#                                                # with the reference phase 1 chose (eye|shutter)
+#                                                # with the reference phase 1 chose
 #   bench/observer-tables.sh all                 # the three steps in a row
 #
 # The protocol: the reference (and any setting) is chosen on the mono tables only; the stereo
 # tables are then run once with everything frozen. Each step resumes: the clip set verifies
 # and skips rendered sequences, and `predict` keeps its references and scores in the set
 # (SET/observer/). Results go to analysis/observer/; the command of each is in its predict.md.
+# `REFS=sharp bench/observer-tables.sh mono` adds one reference to the others' results.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${BLURLAB:-target/release/blurlab}
@@ -35,7 +39,7 @@ case "${1:-}" in
   mono)
     render mono "M3 S2 T3 *"
     render mono "M2 S2 T3-T5 A3-A5"
-    for ref in eye shutter; do
+    for ref in ${REFS:-eye shutter sharp}; do
       predict mono-2-sampling-2afc thesis-5.6.3-mono-sampling-2afc "5.6.3-$ref" --reference "$ref"
       predict mono-3-interactions thesis-5.7.2-mono-interactions "5.7.2-$ref" --reference "$ref"
     done
@@ -44,18 +48,22 @@ case "${1:-}" in
     ;;
   choose)
     python3 - "$OUT" <<'PY'
-import json, sys
+import json, os, sys
 out = sys.argv[1]
 def rho(name):
     return json.load(open(f"{out}/{name}/predict.json"))["agreement"]["spearman"]
-mean = {ref: (rho(f"5.6.3-{ref}") + rho(f"5.7.2-{ref}")) / 2 for ref in ("eye", "shutter")}
+measured = [r for r in ("eye", "shutter", "sharp")
+            if all(os.path.isfile(f"{out}/{t}-{r}/predict.json") for t in ("5.6.3", "5.7.2"))]
+if not measured:
+    sys.exit(f"{out}: no reference has results on both mono tables; run `mono` first")
+mean = {ref: (rho(f"5.6.3-{ref}") + rho(f"5.7.2-{ref}")) / 2 for ref in measured}
 for ref, m in mean.items():
     print(f"{ref}: mean Spearman over the mono tables {m:.3f}", file=sys.stderr)
-print("shutter" if mean["shutter"] > mean["eye"] else "eye")
+print(max(measured, key=lambda r: (mean[r], -measured.index(r))))
 PY
     ;;
   stereo)
-    ref=${2:?"name the reference chosen on the mono tables: eye or shutter"}
+    ref=${2:?"name the reference chosen on the mono tables: eye, shutter or sharp"}
     # Table by table, so that an interrupted run leaves whole tables behind.
     render stereo "M3 S2 T3 *"
     predict stereo-2-sampling thesis-6.5.2-stereo-sampling "6.5.2-sampling-$ref" --reference "$ref"

@@ -73,9 +73,20 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     assert_eq!(scores["scores"]["M3-S2-T3-A2"], kept);
     assert_eq!(std::fs::metadata(&reference_frame).unwrap().modified().unwrap(), before);
 
-    // The other reference and the FLIP baseline run on the same set.
-    let o = predict(&set, &dir.path().join("shutter"), &["--reference", "shutter"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // The other references and the FLIP baseline run on the same set, each reference in its
+    // own folder (`sharp`: four instants per frame, as many frames as `eye`).
+    for reference in ["shutter", "sharp"] {
+        let o = predict(&set, &dir.path().join(reference), &["--reference", reference]);
+        assert!(o.status.success(), "{reference}: {}", stderr(&o));
+    }
+    let folders: Vec<String> = std::fs::read_dir(set.join("observer/reference"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(folders.len(), 3, "{folders:?}");
+    let sharp = folders.iter().find(|f| f.starts_with("sharp-")).unwrap();
+    let frames = std::fs::read_dir(set.join("observer/reference").join(sharp).join("M3-S2")).unwrap().count();
+    assert_eq!(frames, 8 * 4, "{sharp}");
     let o = predict(&set, &dir.path().join("flip"), &["--observer", "flip", "--votes", &table]);
     assert!(o.status.success(), "{}", stderr(&o));
 

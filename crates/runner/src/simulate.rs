@@ -11,7 +11,7 @@
 //! - `flip[:sigma=S]`: the image-computable observer of [`crate::flip_observer`]: FLIP
 //!   distances of the frames themselves to the gold standard (2AFC) or to the reference
 //!   (matching), plus Gaussian decision noise of `S` FLIP units.
-//! - `cvvdp[:reference=eye|shutter]`: the ColorVideoVDP observer of `blurlab predict`. Its
+//! - `cvvdp[:reference=eye|shutter|sharp]`: the ColorVideoVDP observer of `blurlab predict`. Its
 //!   qualities (JOD against the reference) and, for matching, its JOD distances of each
 //!   candidate from the shown reference are computed by the caller (the command line renders
 //!   the references) and handed over with [`ObserverModel::with_cvvdp`]. A 2AFC answer prefers
@@ -181,10 +181,10 @@ impl FromStr for ObserverModel {
                 let mut reference = "eye".to_owned();
                 for param in params.split(',').filter(|p| !p.is_empty()) {
                     match param.split_once('=') {
-                        Some(("reference", v @ ("eye" | "shutter"))) => reference = v.to_owned(),
+                        Some(("reference", v @ ("eye" | "shutter" | "sharp"))) => reference = v.to_owned(),
                         _ => {
                             return Err(bad(format!(
-                                "unknown parameter `{param}` (expected reference=eye or reference=shutter)"
+                                "unknown parameter `{param}` (expected reference=eye, reference=shutter or reference=sharp)"
                             )));
                         }
                     }
@@ -192,7 +192,7 @@ impl FromStr for ObserverModel {
                 Ok(ObserverModel::Cvvdp { reference, quality: HashMap::new(), distances: HashMap::new() })
             }
             _ => Err(bad(
-                "expected `thurstone[:sigma=S][,file=PATH]`, `flip[:sigma=S]`, `cvvdp[:reference=eye|shutter]` or `random`"
+                "expected `thurstone[:sigma=S][,file=PATH]`, `flip[:sigma=S]`, `cvvdp[:reference=eye|shutter|sharp]` or `random`"
                     .into(),
             )),
         }
@@ -503,6 +503,8 @@ mod tests {
         let bare: ObserverModel = "cvvdp".parse().unwrap();
         let e = bare.check(&[Trial { index: 0, practice: false, task: Task::TwoAfc, shown: vec![a, b] }]).unwrap_err();
         assert!(e.to_string().contains("no ColorVideoVDP quality for trial 0"), "{e}");
+        let sharp: ObserverModel = "cvvdp:reference=sharp".parse().unwrap();
+        assert!(matches!(&sharp, ObserverModel::Cvvdp { reference, .. } if reference == "sharp"));
         let e = "cvvdp:reference=film".parse::<ObserverModel>().unwrap_err().to_string();
         assert!(e.contains("unknown parameter `reference=film`"), "{e}");
     }

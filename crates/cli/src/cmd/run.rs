@@ -31,7 +31,7 @@ pub struct Args {
     /// Run headlessly with a simulated observer: `thurstone[:sigma=S][,file=PATH]`, `random`, or
     /// `flip[:sigma=S]` (answers from the frames: FLIP distance to the gold standard A5 of the
     /// same material, speed and shutter; matching picks the candidate nearer the reference), or
-    /// `cvvdp[:reference=eye|shutter]` (the ColorVideoVDP observer of `blurlab predict`, its
+    /// `cvvdp[:reference=eye|shutter|sharp]` (the ColorVideoVDP observer of `blurlab predict`, its
     /// choice probabilities sampled).
     #[arg(long)]
     simulate: Option<String>,
@@ -202,7 +202,11 @@ fn cvvdp_model(
     seed: u64,
 ) -> anyhow::Result<ObserverModel> {
     use super::predict::observer::{ObserverSettings, ReferenceKind, distances};
-    let kind = if reference == "shutter" { ReferenceKind::Shutter } else { ReferenceKind::Eye };
+    let kind = match reference {
+        "shutter" => ReferenceKind::Shutter,
+        "sharp" => ReferenceKind::Sharp,
+        _ => ReferenceKind::Eye,
+    };
     match definition.task {
         study::response::Task::TwoAfc => {
             let (q, _) = super::predict::qualities_for(definition, set_dir, kind, None, render::DeviceChoice::Auto)?;

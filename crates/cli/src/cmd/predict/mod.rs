@@ -69,7 +69,7 @@ pub struct Args {
     /// Samples per pixel of each reference frame (default: twice the set's highest level).
     #[arg(long)]
     pub reference_spp: Option<u32>,
-    /// Sub-frames per displayed frame of the `eye` reference.
+    /// Sub-frames per displayed frame of the `eye` and `sharp` references.
     #[arg(long, default_value_t = observer::DEFAULT_SUB_FRAMES)]
     pub sub_frames: u32,
     /// The clip judged: frames FIRST..END of the set's sequences (0-based, END excluded;
@@ -378,7 +378,7 @@ pub fn markdown(f: &Forecast, command: &str) -> String {
             "\n- reference: `{}` at {} samples per pixel{}\n- clip: frames {}..{} of the set's sequences at {} fps\n- display: {:.2} pixels per degree, peak {} cd/m², black {} cd/m², ambient {} lux\n- metric: {}\n- stereo: each eye judged apart, the quality is the mean of the two eyes' JOD\n",
             s.reference.name(),
             s.reference_spp,
-            if s.reference == ReferenceKind::Eye { format!(", {} sub-frames per frame", s.sub_frames) } else { String::new() },
+            if s.reference.has_sub_frames() { format!(", {} sub-frames per frame", s.sub_frames) } else { String::new() },
             s.clip.0,
             s.clip.1,
             s.fps,
