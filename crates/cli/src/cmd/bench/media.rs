@@ -41,11 +41,13 @@ pub struct Args {
     /// Simulation steps before the plume is taken.
     #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     sim_steps: u32,
-    /// Timed GPU rounds per case (after one warm-up; the fastest counts).
+    /// Timed rounds per case, the fastest counting: the GPU's after one warm-up, and the CPU
+    /// twin's (at 512x512 the twin's self-shadowed brute force takes about 15 minutes a round
+    /// on 2 cores).
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
     rounds: u32,
-    /// Time the CPU twin too (one round per case; otherwise it runs once, untimed, for the
-    /// work counts).
+    /// Time the CPU twin too (`--rounds` rounds per case; otherwise it runs once, untimed, for
+    /// the work counts).
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     cpu: bool,
     /// `gpu` (a hardware adapter, else a software one), `auto` (hardware only, else none) or
