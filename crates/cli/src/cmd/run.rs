@@ -202,11 +202,9 @@ fn cvvdp_model(
     seed: u64,
 ) -> anyhow::Result<ObserverModel> {
     use super::predict::observer::{ObserverSettings, ReferenceKind, distances};
-    let kind = match reference {
-        "shutter" => ReferenceKind::Shutter,
-        "sharp" => ReferenceKind::Sharp,
-        _ => ReferenceKind::Eye,
-    };
+    // The runner's parser has already refused names outside the enum.
+    let kind = <ReferenceKind as clap::ValueEnum>::from_str(reference, false)
+        .map_err(|e| BadInput(format!("--simulate cvvdp:reference={reference}: {e}")))?;
     match definition.task {
         study::response::Task::TwoAfc => {
             let (q, _) = super::predict::qualities_for(definition, set_dir, kind, None, render::DeviceChoice::Auto)?;
