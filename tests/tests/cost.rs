@@ -51,7 +51,7 @@ fn error_columns(csv: &str) -> Vec<String> {
     csv.lines()
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
-            [&f[0..5], &f[10..17]].concat().join(",")
+            [&f[0..5], &f[10..20]].concat().join(",")
         })
         .collect()
 }
@@ -71,6 +71,11 @@ fn a_cost_sweep_writes_its_report_and_a_killed_one_continues_to_the_same_table()
     // Tracer 1, 2, 4 spp and the accumulation buffer's single instant (4 spp): 4 rows.
     assert_eq!(csv.lines().count(), 5, "{csv}");
     assert!(csv.lines().nth(1).unwrap().starts_with("tracer,spp,1,1,4,"), "{csv}");
+    assert!(csv.lines().next().unwrap().ends_with(",jod_median,jod_min,jod_max"), "{csv}");
+    for line in csv.lines().skip(1) {
+        let jod: f64 = line.split(',').nth(17).unwrap().parse().unwrap_or_else(|e| panic!("{line}: {e}"));
+        assert!(jod > 0.0 && jod <= 10.0 + 1e-6, "{line}");
+    }
     let md = std::fs::read_to_string(whole.join("cost.md")).unwrap();
     assert!(md.contains("## Reference") && md.contains("FLIP error maps"), "{md}");
     assert!(whole.join("maps/tracer-spp4-in4-f0000-r0-flip.png").is_file());

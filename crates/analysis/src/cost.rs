@@ -135,7 +135,10 @@ pub fn markdown(sweep: &CostSweep, groups: &[MarkedGroup], figures: &[String], m
         "# What accuracy costs: {} {}, preset {}\n\nFrames {:?} of {}x{} per eye ({}), {} repetitions per point, rendered on {}. \
          Errors are against a converged tracer reference on display values (exposure, tone map, sRGB in [0, 1]); \
          FLIP (Andersson et al. 2020, NVIDIA's reference code) of the 8-bit frames as shown, at {:.2} pixels per degree \
-         (the design's viewing geometry). Times are wall-clock seconds per frame: median and range over frames and repetitions.\n\n",
+         (the design's viewing geometry); the observer's prediction, ColorVideoVDP's quality (Mantiuk et al. 2024) of the frame as shown \
+         against the reference on the design's display, in JOD: 10 where people would see no difference, 1 JOD lower where 75 % of them \
+         would prefer the reference (`-` for points kept from a sweep measured before it was recorded). \
+         Times are wall-clock seconds per frame: median and range over frames and repetitions.\n\n",
         sweep.design,
         sweep.cell,
         sweep.preset,
@@ -165,11 +168,11 @@ pub fn markdown(sweep: &CostSweep, groups: &[MarkedGroup], figures: &[String], m
         ));
     }
     md.push_str(
-        "\n## Table\n\n| setting | renders | seconds (median, range) | GPU s | work units | RMSE (median, range) | PSNR dB | FLIP (median, range) |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n",
+        "\n## Table\n\n| setting | renders | seconds (median, range) | GPU s | work units | RMSE (median, range) | PSNR dB | FLIP (median, range) | JOD (median, range) |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
     );
     for r in &rows {
         md.push_str(&format!(
-            "| {} | {} | {:.4} ({:.4}-{:.4}) | {} | {:.3e} | {:.5} ({:.5}-{:.5}) | {:.2} | {:.5} ({:.5}-{:.5}) |\n",
+            "| {} | {} | {:.4} ({:.4}-{:.4}) | {} | {:.3e} | {:.5} ({:.5}-{:.5}) | {:.2} | {:.5} ({:.5}-{:.5}) | {} |\n",
             r.label(),
             r.renders,
             r.wall_seconds.median,
@@ -183,7 +186,8 @@ pub fn markdown(sweep: &CostSweep, groups: &[MarkedGroup], figures: &[String], m
             r.psnr_db,
             r.flip.median,
             r.flip.min,
-            r.flip.max
+            r.flip.max,
+            r.jod.map_or("-".into(), |j| format!("{:.3} ({:.3}-{:.3})", j.median, j.min, j.max))
         ));
     }
     if rows.iter().any(|r| r.method == Method::Analytic) {
@@ -446,6 +450,7 @@ mod tests {
                     rmse: 0.1 / f64::from(spp).sqrt() * (1.0 + 0.01 * f64::from(rep)),
                     rmse_linear: 0.1,
                     flip: 0.2 / (i as f64 + 1.0),
+                    jod: Some(9.0 + 0.1 * i as f64),
                 });
             }
         }
@@ -492,6 +497,7 @@ mod tests {
         // A3 is 8 spp (0.08 s) against the gold 16 spp (0.16 s): half the time saved.
         assert!(text.contains("| mono-3-interactions | G1 |") && text.contains("50.0 %"), "{text}");
         assert!(text.contains("M2-S2-T4-A5 (other cell)"), "{text}");
+        assert!(text.contains("| tracer spp=16 | 3 |") && text.contains("| 9.400 (9.400-9.400) |"), "{text}");
         for f in ["cost.csv", "cost.json", "cost-rmse.png", "cost-rmse.svg", "cost-flip.png", "cost-flip.svg"] {
             assert!(out.join(f).exists(), "{f}");
         }

@@ -107,6 +107,11 @@ fn the_tracer_error_falls_as_one_over_sqrt_spp_and_every_finest_setting_approach
     assert!(s.reference_standard_error() < 0.1 * finest.rmse.median);
     // FLIP falls with the samples too.
     assert!(finest.flip.median < tracer[0].flip.median);
+    // The observer's prediction: every frame judged, none above the metric's maximum (10 JOD
+    // for a frame shown as the reference is), and 16 samples closer to the reference than 1.
+    let jod = |r: &study::cost::CostRow| r.jod.expect("every point judged").median;
+    assert!(rows.iter().all(|r| jod(r) <= 10.0 + 1e-6 && jod(r) > 0.0), "{rows:?}");
+    assert!(jod(finest) > jod(tracer[0]), "{} vs {}", jod(finest), jod(tracer[0]));
 
     // Accumulation buffer (centred instants, 4 spp each): more instants approach the
     // reference; at 16 samples in all it is within 3x the tracer's error at 16 spp (its
@@ -178,8 +183,8 @@ fn a_stopped_sweep_resumes_to_the_same_table() {
         assert!(resumed.sweep.points.contains(p), "{p:?}");
     }
     // The errors are the uninterrupted sweep's, point by point (the same seeds).
-    let errors = |s: &CostSweep| -> Vec<(String, f64, f64, f64)> {
-        s.points.iter().map(|p| (p.key(), p.rmse, p.rmse_linear, p.flip)).collect()
+    let errors = |s: &CostSweep| -> Vec<(String, f64, f64, f64, Option<f64>)> {
+        s.points.iter().map(|p| (p.key(), p.rmse, p.rmse_linear, p.flip, p.jod)).collect()
     };
     assert_eq!(errors(&resumed.sweep), errors(&whole));
     // Once complete, a rerun measures nothing and gives the same table.

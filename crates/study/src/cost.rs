@@ -49,6 +49,12 @@ pub struct CostPoint {
     pub rmse_linear: f64,
     /// Mean FLIP against the reference (8-bit sRGB frames, as shown).
     pub flip: f64,
+    /// ColorVideoVDP's quality of the frame as shown against the reference, JOD (10: the
+    /// display shows them alike; 1 JOD lower: 75 % of people prefer the reference), at the
+    /// design's display and viewing geometry, the mean over the eyes; `None` in points kept
+    /// from sweeps measured before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jod: Option<f64>,
 }
 
 impl CostPoint {
@@ -159,6 +165,8 @@ pub struct CostRow {
     pub psnr_db: f64,
     /// Mean FLIP.
     pub flip: Spread,
+    /// ColorVideoVDP quality, JOD, where every render recorded it.
+    pub jod: Option<Spread>,
 }
 
 impl CostRow {
@@ -198,6 +206,7 @@ impl CostSweep {
                     .collect();
                 let of = |f: &dyn Fn(&CostPoint) -> f64| Spread::of(&pts.iter().map(|p| f(p)).collect::<Vec<_>>());
                 let gpu: Option<Vec<f64>> = pts.iter().map(|p| p.gpu_seconds).collect();
+                let jod: Option<Vec<f64>> = pts.iter().map(|p| p.jod).collect();
                 let rmse = of(&|p| p.rmse);
                 CostRow {
                     method,
@@ -211,6 +220,7 @@ impl CostSweep {
                     psnr_db: psnr(rmse.median),
                     rmse,
                     flip: of(&|p| p.flip),
+                    jod: jod.map(|j| Spread::of(&j)),
                 }
             })
             .collect()
@@ -248,12 +258,12 @@ impl CostSweep {
     /// `cost.csv`: one line per row, the columns named in its header.
     pub fn csv(&self) -> String {
         let mut out = String::from(
-            "method,knob,value,input_spp,renders,wall_seconds_median,wall_seconds_min,wall_seconds_max,gpu_seconds_median,work_units,rmse_median,rmse_min,rmse_max,psnr_db,flip_median,flip_min,flip_max\n",
+            "method,knob,value,input_spp,renders,wall_seconds_median,wall_seconds_min,wall_seconds_max,gpu_seconds_median,work_units,rmse_median,rmse_min,rmse_max,psnr_db,flip_median,flip_min,flip_max,jod_median,jod_min,jod_max\n",
         );
         let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6}"));
         for r in self.rows() {
             out.push_str(&format!(
-                "{},{},{},{},{},{:.6},{:.6},{:.6},{},{:.0},{:.6},{:.6},{:.6},{:.3},{:.6},{:.6},{:.6}\n",
+                "{},{},{},{},{},{:.6},{:.6},{:.6},{},{:.0},{:.6},{:.6},{:.6},{:.3},{:.6},{:.6},{:.6},{},{},{}\n",
                 r.method,
                 r.knob,
                 r.value,
@@ -270,7 +280,10 @@ impl CostSweep {
                 r.psnr_db,
                 r.flip.median,
                 r.flip.min,
-                r.flip.max
+                r.flip.max,
+                opt(r.jod.map(|j| j.median)),
+                opt(r.jod.map(|j| j.min)),
+                opt(r.jod.map(|j| j.max))
             ));
         }
         out
@@ -296,12 +309,13 @@ mod tests {
             rmse,
             rmse_linear: rmse,
             flip: rmse * 2.0,
+            jod: Some(10.0 - rmse),
         }
     }
 
-    #[test]
-    fn rows_take_the_median_and_spread_of_the_repetitions_in_sweep_order() {
-        let sweep = CostSweep {
+    /// A 4 x 4 sweep of `points` with one reference.
+    fn sweep_of(points: Vec<CostPoint>, repetitions: u32) -> CostSweep {
+        CostSweep {
             format: COST_FORMAT.into(),
             design: "d".into(),
             design_sha256: "0".into(),
@@ -312,22 +326,32 @@ mod tests {
             width: 4,
             height: 4,
             pixels_per_degree: 10.0,
-            repetitions: 3,
+            repetitions,
             levels: vec![],
             device: "cpu".into(),
             references: vec![CostReference { frame: 0, spp: 64, standard_error: 0.001, wall_seconds: 1.0 }],
-            points: vec![
+            points,
+        }
+    }
+
+    #[test]
+    fn rows_take_the_median_and_spread_of_the_repetitions_in_sweep_order() {
+        let sweep = sweep_of(
+            vec![
                 point(Method::Tracer, 4, 0, 0.3),
                 point(Method::Tracer, 4, 1, 0.1),
                 point(Method::Tracer, 4, 2, 0.2),
                 point(Method::Tracer, 1, 0, 0.5),
             ],
-        };
+            3,
+        );
         let rows = sweep.rows();
         assert_eq!(rows.len(), 2);
         assert_eq!((rows[0].value, rows[0].renders), (4, 3));
         assert_eq!(rows[0].rmse, Spread { median: 0.2, min: 0.1, max: 0.3 });
         assert!((rows[0].psnr_db - 13.979).abs() < 1e-3);
+        let jod = rows[0].jod.unwrap();
+        assert!((jod.median - 9.8).abs() < 1e-12 && (jod.min - 9.7).abs() < 1e-12 && (jod.max - 9.9).abs() < 1e-12);
         assert_eq!(rows[0].label(), "tracer spp=4");
         assert_eq!(sweep.smallest_error().unwrap().0, 0.2);
         // 0.5 at 1 spp, 0.2 at 4: log(0.4) / log(4).
@@ -335,8 +359,21 @@ mod tests {
         let csv = sweep.csv();
         assert_eq!(csv.lines().count(), 3);
         assert!(csv.lines().nth(1).unwrap().starts_with("tracer,spp,4,4,3,0.040000"), "{csv}");
+        assert!(csv.lines().nth(1).unwrap().ends_with(",9.800000,9.700000,9.900000"), "{csv}");
         assert_eq!(sweep.points[0].key(), "tracer-spp4-in4-f0000-r0");
         let json = serde_json::to_string(&sweep).unwrap();
         assert_eq!(serde_json::from_str::<CostSweep>(&json).unwrap(), sweep);
+    }
+
+    #[test]
+    fn points_kept_from_before_the_observer_leave_its_columns_empty() {
+        let mut old = serde_json::to_value(point(Method::Tracer, 2, 0, 0.1)).unwrap();
+        old.as_object_mut().unwrap().remove("jod");
+        let old: CostPoint = serde_json::from_value(old).unwrap();
+        assert_eq!(old.jod, None);
+        let sweep = sweep_of(vec![old, point(Method::Tracer, 2, 1, 0.2)], 2);
+        // One render without a quality: the row has none rather than the other's alone.
+        assert_eq!(sweep.rows()[0].jod, None);
+        assert!(sweep.csv().lines().nth(1).unwrap().ends_with(",,,"), "{}", sweep.csv());
     }
 }

@@ -16,7 +16,9 @@
 //!   budget (lighting samples: the preset's highest level).
 //! - Each point records wall time (and GPU time where measured), work units and its error:
 //!   display RMSE (exposure, tone map, sRGB), linear RMSE and mean FLIP (`perceptual`) of the
-//!   8-bit frame as shown, at the design's pixels per degree.
+//!   8-bit frame as shown, at the design's pixels per degree, and the observer's prediction:
+//!   ColorVideoVDP's quality of that frame against the reference's, in JOD, on the display
+//!   of the design's `[viewing]` section (each eye judged, their mean).
 //! - Resumable: the request's identity is kept in `OUT/cost-request.json`, each reference
 //!   in `OUT/reference/` and each point in `OUT/points/KEY.json` as soon as it is measured
 //!   (atomic writes); a rerun keeps what is there and measures only what is missing, so a
@@ -29,6 +31,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use perceptual::SrgbImage;
+use perceptual::cvvdp::{Clip, CvvdpError, DisplayConditions, Threads, VideoObserver};
 use serde::{Deserialize, Serialize};
 use study::Method;
 use study::cost::{COST_FORMAT, CostPoint, CostReference, CostSweep, point_key};
@@ -81,6 +84,9 @@ pub enum CostError {
     /// FLIP failed.
     #[error("FLIP: {0}")]
     Flip(#[from] perceptual::FlipError),
+    /// ColorVideoVDP failed, or the design's display is out of its range.
+    #[error("the observer's prediction: {0}")]
+    Observer(#[from] CvvdpError),
     /// A file could not be read or written.
     #[error("{path}: {message}")]
     File {
@@ -94,7 +100,13 @@ pub enum CostError {
 impl CostError {
     /// Whether the user can fix it by changing the request.
     pub fn is_bad_input(&self) -> bool {
-        matches!(self, CostError::Request(_) | CostError::NotConverged { .. } | CostError::Design(_))
+        matches!(
+            self,
+            CostError::Request(_)
+                | CostError::NotConverged { .. }
+                | CostError::Design(_)
+                | CostError::Observer(CvvdpError::Display { .. })
+        )
     }
 }
 
@@ -208,6 +220,8 @@ struct Context<'a, 'env> {
     id: StimulusId,
     ppd: f64,
     eyes: u32,
+    observer: VideoObserver,
+    fps: f64,
     out: PathBuf,
 }
 
@@ -290,6 +304,10 @@ impl Context<'_, '_> {
         let image = frame_out.image;
         let srgb = self.srgb(&image, &scene)?;
         let flip_mean = perceptual::flip_eyes(&reference.srgb, &srgb, self.eyes, self.ppd)?;
+        // One frame is an image to ColorVideoVDP: its spatial and colour channels judge it.
+        let test = Clip { frames: std::slice::from_ref(&srgb), fps: self.fps };
+        let shown = Clip { frames: std::slice::from_ref(&reference.srgb), fps: self.fps };
+        let jod = self.observer.judge(&test, &shown, self.eyes)?.jod();
         let pixels = u64::from(image.width) * u64::from(image.height);
         let point = CostPoint {
             method: setting.spec.kind(),
@@ -305,6 +323,7 @@ impl Context<'_, '_> {
             rmse: display_rmse(&image, &reference.image, &scene.exposure),
             rmse_linear: image.rms_difference(&reference.image),
             flip: flip_mean,
+            jod: Some(jod),
         };
         if map {
             let dir = self.out.join("maps");
@@ -439,10 +458,20 @@ pub fn run_cost(
     } else {
         write(&identity_path, &serde_json::to_vec_pretty(&identity).map_err(|e| file_error(&identity_path, e))?)?;
     }
+    let viewing = &design.spec.viewing;
+    let ppd = design.pixels_per_degree(preset.width);
+    let display = DisplayConditions {
+        pixels_per_degree: ppd,
+        peak_luminance: viewing.peak_luminance,
+        black_level: viewing.black_level,
+        ambient_lux: viewing.ambient_lux,
+    };
     let ctx = Context {
         design,
         renderer,
-        ppd: design.pixels_per_degree(preset.width),
+        ppd,
+        observer: VideoObserver::new(display, Threads::Pool)?,
+        fps: design.spec.sequence.fps,
         eyes: if view == View::Stereo { 2 } else { 1 },
         preset: preset.clone(),
         id,
