@@ -544,6 +544,14 @@ pub fn run_cost(
         sweep.references.push(r.record.clone());
         references.insert(frame, r);
     }
+    // What a process makes once and every later render shares (a medium's grids: the smoke is
+    // simulated on first use) is made here, untimed; otherwise the first point measured pays
+    // for it whenever the references come from disk.
+    for &frame in &frames {
+        if let Some(medium) = &ctx.base_scene(frame)?.medium {
+            crate::volume::grids_for(medium, &mut |_, _| {}).map_err(|e| RenderError::Scene(e.to_string()))?;
+        }
+    }
     let total = order.len();
     let (mut measured, mut kept, mut complete) = (0, 0, true);
     progress(Progress { done: 0, total, measured: 0 });
