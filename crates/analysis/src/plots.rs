@@ -315,15 +315,73 @@ impl Figure for ForecastScatter {
         if a < b {
             chart.draw_series([PathElement::new(vec![(a, a), (b, b)], BLACK.mix(0.3).stroke_width(1))]).map_err(err)?;
         }
-        for (i, l) in self.labels.iter().enumerate() {
-            let (x, y) = (self.predicted[i], self.published[i]);
-            chart.draw_series([Circle::new((x, y), 5, group_colour(0).filled())]).map_err(err)?;
-            chart
-                .draw_series([Text::new(l.clone(), (x, y), text_style(13.0).pos(Pos::new(HPos::Left, VPos::Bottom)))])
-                .map_err(err)?;
+        let points: Vec<(f64, f64)> = self.predicted.iter().copied().zip(self.published.iter().copied()).collect();
+        chart
+            .draw_series(points.iter().map(|&p| Circle::new(p, POINT_RADIUS, group_colour(0).filled())))
+            .map_err(err)?;
+        let style = text_style(13.0).pos(Pos::new(HPos::Left, VPos::Top));
+        let sizes = self
+            .labels
+            .iter()
+            .map(|l| root.estimate_text_size(l, &style).map_err(err))
+            .collect::<Result<Vec<_>, _>>()?;
+        let pixels: Vec<(i32, i32)> = points.iter().map(|p| chart.backend_coord(p)).collect();
+        let base = root.get_base_pixel();
+        let (w, h) = root.dim_in_pixel();
+        let area = (base.0, base.1, base.0 + w as i32, base.1 + h as i32);
+        for (l, corner) in self.labels.iter().zip(place_labels(&pixels, &sizes, POINT_RADIUS as i32 + 2, area)) {
+            root.draw(&Text::new(l.clone(), (corner.0 - base.0, corner.1 - base.1), style.clone())).map_err(err)?;
         }
         Ok(())
     }
+}
+
+const POINT_RADIUS: u32 = 5;
+
+/// Where each point's label goes (top-left corners, in pixels): beside its point, on the
+/// first of eight sides where the label stays inside `area` (left, top, right, bottom) and
+/// overlaps neither a label placed before it nor another point; where every side is taken,
+/// the side with the least overlap. Stimuli with nearly equal scores sit side by side, and
+/// labels drawn always to the upper right would cover each other.
+fn place_labels(points: &[(i32, i32)], sizes: &[(u32, u32)], gap: i32, area: (i32, i32, i32, i32)) -> Vec<(i32, i32)> {
+    type Box = (i32, i32, i32, i32);
+    let overlap = |a: Box, b: Box| -> i64 {
+        let w = (a.2.min(b.2) - a.0.max(b.0)).max(0);
+        let h = (a.3.min(b.3) - a.1.max(b.1)).max(0);
+        i64::from(w) * i64::from(h)
+    };
+    let r = gap - 2;
+    let dots: Vec<Box> = points.iter().map(|&(x, y)| (x - r, y - r, x + r, y + r)).collect();
+    let mut placed: Vec<Box> = Vec::new();
+    let mut corners = Vec::with_capacity(points.len());
+    for (i, (&(x, y), &(w, h))) in points.iter().zip(sizes).enumerate() {
+        let (w, h) = (w as i32, h as i32);
+        let candidates = [
+            (x + gap, y - h),
+            (x + gap, y),
+            (x - gap - w, y - h),
+            (x - gap - w, y),
+            (x - w / 2, y - gap - h),
+            (x - w / 2, y + gap),
+            (x + gap, y - h / 2),
+            (x - gap - w, y - h / 2),
+        ];
+        let cost = |&(cx, cy): &(i32, i32)| -> i64 {
+            let b = (cx, cy, cx + w, cy + h);
+            let outside = overlap(b, area) < i64::from(w) * i64::from(h);
+            let covered: i64 = placed.iter().map(|&p| overlap(b, p)).sum::<i64>()
+                + dots.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, &d)| overlap(b, d)).sum::<i64>();
+            if outside { i64::MAX / 2 + covered } else { covered }
+        };
+        let best = candidates
+            .iter()
+            .find(|c| cost(c) == 0)
+            .copied()
+            .unwrap_or_else(|| candidates.iter().copied().min_by_key(|c| cost(c)).unwrap_or(candidates[0]));
+        placed.push((best.0, best.1, best.0 + w, best.1 + h));
+        corners.push(best);
+    }
+    corners
 }
 
 /// Two vote figures side by side (a forecast's groups beside the published ones).
@@ -889,6 +947,33 @@ impl Figure for ScreeningFigure {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn labels_of_neighbouring_points_do_not_cover_each_other() {
+        // Two stimuli 15 px apart on one line (6.6.2's T5-A4 and T5-A5) and one far away.
+        let points = [(300, 400), (315, 400), (100, 100)];
+        let sizes = [(40, 14), (40, 14), (40, 14)];
+        let corners = place_labels(&points, &sizes, 7, (0, 0, 640, 560));
+        let boxes: Vec<_> =
+            corners.iter().zip(&sizes).map(|(&(x, y), &(w, h))| (x, y, x + w as i32, y + h as i32)).collect();
+        let disjoint =
+            |a: (i32, i32, i32, i32), b: (i32, i32, i32, i32)| a.2 <= b.0 || b.2 <= a.0 || a.3 <= b.1 || b.3 <= a.1;
+        for i in 0..boxes.len() {
+            for j in i + 1..boxes.len() {
+                assert!(disjoint(boxes[i], boxes[j]), "{:?} and {:?} overlap", boxes[i], boxes[j]);
+            }
+            for (j, &(x, y)) in points.iter().enumerate() {
+                if i != j {
+                    assert!(disjoint(boxes[i], (x - 5, y - 5, x + 5, y + 5)), "label {i} covers point {j}");
+                }
+            }
+        }
+        // A lone point keeps the usual place: above and to the right.
+        assert_eq!(corners[2], (107, 86));
+        // A point at the right edge puts its label on its left, inside the figure.
+        let edge = place_labels(&[(630, 300)], &[(40, 14)], 7, (0, 0, 640, 560));
+        assert_eq!(edge[0], (630 - 7 - 40, 286));
+    }
 
     #[test]
     fn log_axes_label_one_two_five_only() {

@@ -210,10 +210,6 @@ pub fn march_eye(
         shade_empty: false,
     };
     let rays = eye_rays(instant, camera);
-    let pixel = |(r, shadowed): (media::MarchResult, Vec3)| PixelMedium {
-        radiance: r.radiance,
-        surface_weight: shadowed * r.transmittance,
-    };
     match gpu {
         Some((marcher, volume)) => {
             let size = (camera.width, camera.height);
@@ -242,14 +238,9 @@ pub fn march_eye(
             let pixels = rays
                 .par_iter()
                 .map(|ray| {
-                    pixel(march_surface_ray(
-                        &medium,
-                        &lights.march,
-                        &lights.world,
-                        ray,
-                        &march,
-                        settings.validity_mask(),
-                    ))
+                    let (r, shadowed) =
+                        march_surface_ray(&medium, &lights.march, &lights.world, ray, &march, settings.validity_mask());
+                    PixelMedium { radiance: r.radiance, surface_weight: shadowed * r.transmittance }
                 })
                 .collect();
             Ok((pixels, None))
