@@ -221,7 +221,6 @@ struct Context<'a, 'env> {
     ppd: f64,
     eyes: u32,
     observer: VideoObserver,
-    fps: f64,
     out: PathBuf,
 }
 
@@ -305,8 +304,9 @@ impl Context<'_, '_> {
         let srgb = self.srgb(&image, &scene)?;
         let flip_mean = perceptual::flip_eyes(&reference.srgb, &srgb, self.eyes, self.ppd)?;
         // One frame is an image to ColorVideoVDP: its spatial and colour channels judge it.
-        let test = Clip { frames: std::slice::from_ref(&srgb), fps: self.fps };
-        let shown = Clip { frames: std::slice::from_ref(&reference.srgb), fps: self.fps };
+        let fps = self.design.spec.sequence.fps;
+        let test = Clip { frames: std::slice::from_ref(&srgb), fps };
+        let shown = Clip { frames: std::slice::from_ref(&reference.srgb), fps };
         let jod = self.observer.judge(&test, &shown, self.eyes)?.jod();
         let pixels = u64::from(image.width) * u64::from(image.height);
         let point = CostPoint {
@@ -471,7 +471,6 @@ pub fn run_cost(
         renderer,
         ppd,
         observer: VideoObserver::new(display, Threads::Pool)?,
-        fps: design.spec.sequence.fps,
         eyes: if view == View::Stereo { 2 } else { 1 },
         preset: preset.clone(),
         id,
