@@ -329,7 +329,7 @@ impl Figure for ForecastScatter {
         let base = root.get_base_pixel();
         let (w, h) = root.dim_in_pixel();
         let area = (base.0, base.1, base.0 + w as i32, base.1 + h as i32);
-        for (l, corner) in self.labels.iter().zip(place_labels(&pixels, &sizes, POINT_RADIUS as i32 + 2, area)) {
+        for (l, corner) in self.labels.iter().zip(place_labels(&pixels, &sizes, POINT_RADIUS as i32, area)) {
             root.draw(&Text::new(l.clone(), (corner.0 - base.0, corner.1 - base.1), style.clone())).map_err(err)?;
         }
         Ok(())
@@ -338,21 +338,26 @@ impl Figure for ForecastScatter {
 
 const POINT_RADIUS: u32 = 5;
 
-/// Where each point's label goes (top-left corners, in pixels): beside its point, on the
-/// first of eight sides where the label stays inside `area` (left, top, right, bottom) and
-/// overlaps neither a label placed before it nor another point; where every side is taken,
-/// the side with the least overlap. Stimuli with nearly equal scores sit side by side, and
-/// labels drawn always to the upper right would cover each other.
-fn place_labels(points: &[(i32, i32)], sizes: &[(u32, u32)], gap: i32, area: (i32, i32, i32, i32)) -> Vec<(i32, i32)> {
-    type Box = (i32, i32, i32, i32);
-    let overlap = |a: Box, b: Box| -> i64 {
+/// Where each point's label goes (top-left corners, in pixels): beside its point (a dot of
+/// `radius`), on the first of eight sides where the label stays inside `area` (left, top,
+/// right, bottom) and overlaps neither a label placed before it nor another point; where
+/// every side is taken, the first side with the least overlap. Stimuli with nearly equal
+/// scores sit side by side, and labels drawn always to the upper right would cover each other.
+fn place_labels(
+    points: &[(i32, i32)],
+    sizes: &[(u32, u32)],
+    radius: i32,
+    area: (i32, i32, i32, i32),
+) -> Vec<(i32, i32)> {
+    type Rect = (i32, i32, i32, i32);
+    let overlap = |a: Rect, b: Rect| -> i64 {
         let w = (a.2.min(b.2) - a.0.max(b.0)).max(0);
         let h = (a.3.min(b.3) - a.1.max(b.1)).max(0);
         i64::from(w) * i64::from(h)
     };
-    let r = gap - 2;
-    let dots: Vec<Box> = points.iter().map(|&(x, y)| (x - r, y - r, x + r, y + r)).collect();
-    let mut placed: Vec<Box> = Vec::new();
+    let gap = radius + 2;
+    let dots: Vec<Rect> = points.iter().map(|&(x, y)| (x - radius, y - radius, x + radius, y + radius)).collect();
+    let mut placed: Vec<Rect> = Vec::new();
     let mut corners = Vec::with_capacity(points.len());
     for (i, (&(x, y), &(w, h))) in points.iter().zip(sizes).enumerate() {
         let (w, h) = (w as i32, h as i32);
@@ -373,11 +378,8 @@ fn place_labels(points: &[(i32, i32)], sizes: &[(u32, u32)], gap: i32, area: (i3
                 + dots.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, &d)| overlap(b, d)).sum::<i64>();
             if outside { i64::MAX / 2 + covered } else { covered }
         };
-        let best = candidates
-            .iter()
-            .find(|c| cost(c) == 0)
-            .copied()
-            .unwrap_or_else(|| candidates.iter().copied().min_by_key(|c| cost(c)).unwrap_or(candidates[0]));
+        // The first of the least covered sides: a free side where there is one.
+        let best = candidates.iter().copied().min_by_key(|c| cost(c)).unwrap_or(candidates[0]);
         placed.push((best.0, best.1, best.0 + w, best.1 + h));
         corners.push(best);
     }
@@ -953,7 +955,7 @@ mod tests {
         // Two stimuli 15 px apart on one line (6.6.2's T5-A4 and T5-A5) and one far away.
         let points = [(300, 400), (315, 400), (100, 100)];
         let sizes = [(40, 14), (40, 14), (40, 14)];
-        let corners = place_labels(&points, &sizes, 7, (0, 0, 640, 560));
+        let corners = place_labels(&points, &sizes, 5, (0, 0, 640, 560));
         let boxes: Vec<_> =
             corners.iter().zip(&sizes).map(|(&(x, y), &(w, h))| (x, y, x + w as i32, y + h as i32)).collect();
         let disjoint =
@@ -971,7 +973,7 @@ mod tests {
         // A lone point keeps the usual place: above and to the right.
         assert_eq!(corners[2], (107, 86));
         // A point at the right edge puts its label on its left, inside the figure.
-        let edge = place_labels(&[(630, 300)], &[(40, 14)], 7, (0, 0, 640, 560));
+        let edge = place_labels(&[(630, 300)], &[(40, 14)], 5, (0, 0, 640, 560));
         assert_eq!(edge[0], (630 - 7 - 40, 286));
     }
 
