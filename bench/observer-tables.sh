@@ -12,6 +12,11 @@
 #   bench/observer-tables.sh stereo REFERENCE    # phase 2: the three stereo tables, held out,
 #                                                # with the reference phase 1 chose
 #   bench/observer-tables.sh all                 # the three steps in a row
+#   bench/observer-tables.sh explore [TABLE...]  # post hoc, every table already seen: the `sharp`
+#                                                # reference seen by a pursuing eye (`pursuit`)
+#                                                # and by a population half fixating, half
+#                                                # pursuing (`both`); TABLE: 5.6.3 5.7.2
+#                                                # 6.5.2-sampling 6.5.2-shutter 6.6.2 (default all)
 #
 # The protocol: the reference (and any setting) is chosen on the mono tables only; the stereo
 # tables are then run once with everything frozen. Each step resumes: the clip set verifies
@@ -75,13 +80,32 @@ PY
     predict stereo-3-interactions thesis-6.6.2-stereo-interactions "6.6.2-$ref" --reference "$ref"
     predict stereo-3-interactions thesis-6.6.2-stereo-interactions 6.6.2-flip --observer flip
     ;;
+  explore)
+    # Not a held-out test: the model was thought of after all five tables had been seen
+    # (BENCHMARKS.md, "Post hoc: eye movements"). Results go to $OUT/explore/.
+    shift
+    tables=${*:-5.6.3 5.7.2 6.5.2-sampling 6.5.2-shutter 6.6.2}
+    for table in $tables; do
+      case $table in
+        5.6.3) render mono "M3 S2 T3 *"; args=(mono-2-sampling-2afc thesis-5.6.3-mono-sampling-2afc) ;;
+        5.7.2) render mono "M2 S2 T3-T5 A3-A5"; args=(mono-3-interactions thesis-5.7.2-mono-interactions) ;;
+        6.5.2-sampling) render stereo "M3 S2 T3 *"; args=(stereo-2-sampling thesis-6.5.2-stereo-sampling) ;;
+        6.5.2-shutter) render stereo "M3 S2 * A5"; args=(stereo-2-shutter thesis-6.5.2-stereo-shutter) ;;
+        6.6.2) render stereo "M2 S2 T3-T5 A3-A5"; args=(stereo-3-interactions thesis-6.6.2-stereo-interactions) ;;
+        *) echo "explore: unknown table $table" >&2; exit 2 ;;
+      esac
+      for eyes in pursuit both; do
+        predict "${args[@]}" "explore/$table-sharp-$eyes" --reference sharp --eye-movement "$eyes"
+      done
+    done
+    ;;
   all)
     "$0" mono
     ref=$("$0" choose)
     "$0" stereo "$ref"
     ;;
   *)
-    sed -n '2,17p' "$0"
+    sed -n '2,22p' "$0"
     exit 2
     ;;
 esac

@@ -16,6 +16,7 @@
 //! (`--simulate flip`) use this crate; it links neither the renderer nor the runner.
 
 pub mod cvvdp;
+pub mod pursuit;
 
 use std::fmt;
 

@@ -207,6 +207,7 @@ fn cvvdp_forecasts(
             reference: super::predict::observer::ReferenceKind::Eye,
             reference_spp: None,
             sub_frames: super::predict::observer::DEFAULT_SUB_FRAMES,
+            eye_movement: super::predict::EyeMovementArg::Fixation,
             clip: None,
             votes: None,
             judges: Some(p.complete_judges.max(1)),

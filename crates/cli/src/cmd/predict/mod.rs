@@ -4,6 +4,9 @@
 //! - `--observer cvvdp` (default): each sequence's quality in JOD from ColorVideoVDP against
 //!   its reference ([`observer`]); `P(i over j) = Phi(z75 (Q_i - Q_j))`
 //!   (`analysis::forecast`).
+//!   `--eye-movement pursuit` judges the frames as an eye that follows the sphere sees them;
+//!   `both` forecasts a population of which half fixate and half pursue: each choice
+//!   probability is the mean of the two observers' (an exploration, BENCHMARKS.md).
 //! - `--observer flip`: the FLIP observer of `--simulate flip` (distances to the gold
 //!   standard, its default decision noise), as the baseline.
 //!
@@ -27,7 +30,7 @@ use study::StimulusId;
 use study::experiment::ExperimentDefinition;
 use study::response::Task;
 
-use self::observer::{ObserverSettings, ReferenceKind};
+use self::observer::{EyeMovement, ObserverSettings, ReferenceKind};
 use super::BadInput;
 use super::stimuli::DeviceArg;
 
@@ -48,6 +51,34 @@ impl ObserverArg {
             ObserverArg::Cvvdp => "cvvdp",
             ObserverArg::Flip => "flip",
         }
+    }
+}
+
+/// How the forecast's observers move their eyes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EyeMovementArg {
+    /// Every observer fixates.
+    #[default]
+    Fixation,
+    /// Every observer follows the sphere.
+    Pursuit,
+    /// Half fixate, half follow the sphere: each choice probability is the mean of the two.
+    Both,
+}
+
+impl EyeMovementArg {
+    /// The eye movements of the population, in equal shares.
+    fn movements(self) -> &'static [EyeMovement] {
+        match self {
+            EyeMovementArg::Fixation => &[EyeMovement::Fixation],
+            EyeMovementArg::Pursuit => &[EyeMovement::Pursuit],
+            EyeMovementArg::Both => &[EyeMovement::Fixation, EyeMovement::Pursuit],
+        }
+    }
+
+    fn is_fixation(&self) -> bool {
+        *self == EyeMovementArg::Fixation
     }
 }
 
@@ -72,6 +103,10 @@ pub struct Args {
     /// Sub-frames per displayed frame of the `eye` and `sharp` references.
     #[arg(long, default_value_t = observer::DEFAULT_SUB_FRAMES)]
     pub sub_frames: u32,
+    /// How the observers' eyes move: `fixation` (the metric as it is), `pursuit` (following
+    /// the sphere) or `both` (half and half).
+    #[arg(long, value_enum, default_value_t = EyeMovementArg::Fixation)]
+    pub eye_movement: EyeMovementArg,
     /// The clip judged: frames FIRST..END of the set's sequences (0-based, END excluded;
     /// default: every frame of the set's preset).
     #[arg(long, value_parser = parse_clip)]
@@ -117,9 +152,13 @@ pub struct ForecastRow {
     pub label: String,
     /// ColorVideoVDP quality (JOD; mean of the eyes), or the FLIP distance.
     pub score: f64,
-    /// Each eye's JOD (ColorVideoVDP).
+    /// Each eye's JOD (ColorVideoVDP; with one eye movement).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub eyes: Vec<f64>,
+    /// The quality (JOD, mean of the eyes) under each eye movement of `--eye-movement both`:
+    /// fixation, pursuit.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub by_eye_movement: Vec<f64>,
     /// Expected votes.
     pub votes: f64,
     /// Published votes, where a table was given.
@@ -136,9 +175,12 @@ pub struct Forecast {
     pub experiment: String,
     /// The observer.
     pub observer: ObserverArg,
-    /// ColorVideoVDP's settings (reference, clip, display).
+    /// ColorVideoVDP's settings (reference, clip, display; the first eye movement's).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub settings: Option<ObserverSettings>,
+    /// How the observers' eyes move.
+    #[serde(skip_serializing_if = "EyeMovementArg::is_fixation")]
+    pub eye_movement: EyeMovementArg,
     /// What a score is.
     pub score: String,
     /// Per stimulus.
@@ -273,11 +315,12 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
         (None, None) => 0.01,
     };
     let (set, design, preset) = open_set(&args.stimuli, definition, false)?;
+    let mut by_movement = vec![Vec::new(); ids.len()];
     let (rows_score, eyes, expected, settings, score): (Vec<f64>, Vec<Vec<f64>>, ExpectedVotes, _, String) = match args
         .observer
     {
         ObserverArg::Cvvdp => {
-            let settings = ObserverSettings::new(
+            let base = ObserverSettings::new(
                 &design,
                 &preset,
                 args.reference,
@@ -285,15 +328,35 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
                 args.sub_frames,
                 args.clip,
             )?;
-            let q = observer::qualities(&set, &design, &preset, &ids, &settings, args.device.into())?;
-            let jod: Vec<f64> = ids.iter().map(|id| q[id].jod()).collect();
-            let eyes = ids.iter().map(|id| q[id].eyes.clone()).collect();
-            let expected = ExpectedVotes::new(labels.clone(), judges, |i, j| preference_from_jod(jod[i], jod[j]));
+            let movements = args.eye_movement.movements();
+            // Per eye movement: each stimulus's quality.
+            let mut jods: Vec<Vec<f64>> = Vec::new();
+            let mut eyes = Vec::new();
+            for &m in movements {
+                let settings = base.clone().with_eye_movement(m);
+                let q = observer::qualities(&set, &design, &preset, &ids, &settings, args.device.into())?;
+                jods.push(ids.iter().map(|id| q[id].jod()).collect());
+                eyes = ids.iter().map(|id| q[id].eyes.clone()).collect();
+            }
+            let shares = movements.len() as f64;
+            let jod: Vec<f64> = (0..ids.len()).map(|i| jods.iter().map(|q| q[i]).sum::<f64>() / shares).collect();
+            if movements.len() > 1 {
+                eyes = vec![Vec::new(); ids.len()];
+                by_movement = (0..ids.len()).map(|i| jods.iter().map(|q| q[i]).collect()).collect();
+            }
+            let expected = ExpectedVotes::new(labels.clone(), judges, |i, j| {
+                jods.iter().map(|q| preference_from_jod(q[i], q[j])).sum::<f64>() / shares
+            });
             let what = format!(
-                "ColorVideoVDP quality (JOD, 10 = no visible difference) against the `{}` reference",
-                settings.reference.name()
+                "ColorVideoVDP quality (JOD, 10 = no visible difference) against the `{}` reference{}",
+                base.reference.name(),
+                match args.eye_movement {
+                    EyeMovementArg::Fixation => "",
+                    EyeMovementArg::Pursuit => ", seen by an eye that follows the sphere",
+                    EyeMovementArg::Both => ", the mean of a fixating and a pursuing eye's",
+                }
             );
-            (jod, eyes, expected, Some(settings), what)
+            (jod, eyes, expected, Some(base.with_eye_movement(movements[0])), what)
         }
         ObserverArg::Flip => {
             // The counted trials only: practice pairs need not be in the set.
@@ -347,6 +410,7 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
             label: labels[i].clone(),
             score: rows_score[i],
             eyes: eyes[i].clone(),
+            by_eye_movement: by_movement[i].clone(),
             votes: expected.votes[i],
             published: published.as_ref().map(|p| p[i]),
         })
@@ -356,6 +420,7 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
         experiment: definition.name.clone(),
         observer: args.observer,
         settings,
+        eye_movement: if args.observer == ObserverArg::Cvvdp { args.eye_movement } else { EyeMovementArg::Fixation },
         score,
         stimuli,
         probability: expected.probability,
@@ -388,6 +453,15 @@ pub fn markdown(f: &Forecast, command: &str) -> String {
             s.ambient_lux,
             s.metric
         ));
+        match f.eye_movement {
+            EyeMovementArg::Fixation => {}
+            EyeMovementArg::Pursuit => md.push_str(
+                "- eyes: following the sphere (smooth pursuit): each sub-frame of test and reference resampled around the sphere's centre at its middle instant\n",
+            ),
+            EyeMovementArg::Both => md.push_str(
+                "- eyes: half the observers fixate, half follow the sphere; P(i over j) is the mean of the two, the score the mean of their JOD\n",
+            ),
+        }
     }
     md.push_str(&format!(
         "\nChoice model: P(i over j) = {}. Expected votes: {} judgements of each pair; David's groups at alpha = {} (ceil(R_c) = {}).\n\n",
@@ -403,7 +477,13 @@ pub fn markdown(f: &Forecast, command: &str) -> String {
     let mut order: Vec<&ForecastRow> = f.stimuli.iter().collect();
     order.sort_by(|a, b| b.votes.total_cmp(&a.votes));
     for r in order {
-        let eyes = if r.eyes.len() > 1 {
+        let eyes = if r.by_eye_movement.len() > 1 {
+            format!(
+                " (fixation {:.3}, pursuit {:.3})",
+                r.by_eye_movement[0],
+                r.by_eye_movement[r.by_eye_movement.len() - 1]
+            )
+        } else if r.eyes.len() > 1 {
             format!(" ({})", r.eyes.iter().map(|e| format!("{e:.3}")).collect::<Vec<_>>().join(" / "))
         } else {
             String::new()

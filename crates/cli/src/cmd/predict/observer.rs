@@ -22,6 +22,13 @@
 //! Reference frames are rendered with the set's design and preset, at `reference_spp`
 //! samples per pixel, with seeds drawn apart from the stimuli's (no noise shared with a test
 //! sequence).
+//!
+//! Eye movements ([`EyeMovement`]): the metric sees the screen as a fixating eye does, unless
+//! the observer pursues the sphere: then every sub-frame of the test (held) and of the
+//! reference is resampled around the sphere's centre at that sub-frame's middle instant, in
+//! each eye's image (`perceptual::pursuit`), so the sphere stands still on the retina and a
+//! held frame slides back while the gaze moves on. The gaze stays on the screen: while the
+//! sphere is out of view it rests at the edge it left by, and it jumps to where it re-enters.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -74,6 +81,23 @@ impl ReferenceKind {
     }
 }
 
+/// How the observer's eyes move while a sequence plays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EyeMovement {
+    /// The eyes rest: the metric judges the frames as they lie on the screen.
+    #[default]
+    Fixation,
+    /// The eyes follow the sphere (smooth pursuit).
+    Pursuit,
+}
+
+impl EyeMovement {
+    fn is_fixation(&self) -> bool {
+        *self == EyeMovement::Fixation
+    }
+}
+
 /// Everything a quality depends on besides the set's frames.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ObserverSettings {
@@ -97,6 +121,10 @@ pub struct ObserverSettings {
     pub ambient_lux: f64,
     /// The metric's version.
     pub metric: String,
+    /// How the eyes move (absent in the cache's name for fixation, so that scores cached
+    /// before pursuit existed keep their names).
+    #[serde(default, skip_serializing_if = "EyeMovement::is_fixation")]
+    pub eye_movement: EyeMovement,
 }
 
 impl ObserverSettings {
@@ -137,7 +165,22 @@ impl ObserverSettings {
             black_level: v.black_level,
             ambient_lux: v.ambient_lux,
             metric: format!("ColorVideoVDP {} (colorvideovdp crate 0.1)", colorvideovdp::Cvvdp::MODEL_VERSION),
+            eye_movement: EyeMovement::Fixation,
         })
+    }
+
+    /// These settings with the eyes moving as `eye_movement` says.
+    pub fn with_eye_movement(self, eye_movement: EyeMovement) -> ObserverSettings {
+        ObserverSettings { eye_movement, ..self }
+    }
+
+    /// The middle instant of each sub-frame of clip frame `frame` (the reference's sub-frames;
+    /// one per frame for `shutter`).
+    fn sub_frame_instants(&self, design: &Design, scene: &FrameScene) -> Vec<f64> {
+        let fps = design.spec.sequence.fps;
+        let start = scene.frame_time - design.spec.sequence.frame_time_offset / fps;
+        let step = 1.0 / (fps * f64::from(self.sub_frames));
+        (0..self.sub_frames).map(|s| start + (f64::from(s) + 0.5) * step).collect()
     }
 
     /// The display conditions.
@@ -226,6 +269,39 @@ fn reference_scene(
         view.seed = study::seed::mix(view.seed, &[REFERENCE_STREAM, u64::from(sub)]);
     }
     Ok(scene)
+}
+
+/// Where each eye looks at each sub-frame of `id`'s clip when it follows the sphere: the
+/// projection of the sphere's centre at the sub-frame's middle instant, kept on the screen.
+fn pursuit_gaze(
+    design: &Design,
+    preset: &Preset,
+    id: &StimulusId,
+    settings: &ObserverSettings,
+) -> anyhow::Result<Vec<Vec<perceptual::pursuit::Gaze>>> {
+    let mut out = Vec::new();
+    for frame in settings.clip.0..settings.clip.1 {
+        let scene = design.frame_scene_with(preset, id, frame).map_err(|e| BadInput(e.to_string()))?;
+        for t in settings.sub_frame_instants(design, &scene) {
+            let centre = scene.sphere.centre_at(t);
+            let gaze = scene
+                .views
+                .iter()
+                .map(|view| {
+                    let c = &view.camera;
+                    let p = c.project(centre).ok_or_else(|| {
+                        BadInput(format!("{id}, frame {frame}: the sphere is behind the {:?} camera", view.eye))
+                    })?;
+                    Ok(perceptual::pursuit::Gaze {
+                        x: p.x.clamp(0.0, f64::from(c.width)),
+                        y: p.y.clamp(0.0, f64::from(c.height)),
+                    })
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            out.push(gaze);
+        }
+    }
+    Ok(out)
 }
 
 /// Renders (or finds) every frame of the references `ids` need; returns nothing, the frames
@@ -391,13 +467,33 @@ pub fn qualities(
             .into());
         }
         let reference = references.load_or_render(id, &mut renderer, env.as_ref(), &progress)?;
-        let judgement = observer
-            .judge(
-                &Clip { frames: &frames.images[first..end], fps: settings.fps },
-                &Clip { frames: &reference, fps: settings.fps * f64::from(settings.sub_frames) },
+        let test = &frames.images[first..end];
+        let sub_fps = settings.fps * f64::from(settings.sub_frames);
+        let judgement = match settings.eye_movement {
+            EyeMovement::Fixation => observer.judge(
+                &Clip { frames: test, fps: settings.fps },
+                &Clip { frames: &reference, fps: sub_fps },
                 frames.eyes,
-            )
-            .with_context(|| format!("judging {id}"))?;
+            ),
+            EyeMovement::Pursuit => {
+                use perceptual::pursuit::{retinal_clip, retinal_image};
+                let gaze = pursuit_gaze(design, preset, id, settings)?;
+                let test = retinal_clip(test, settings.sub_frames, frames.eyes, &gaze)
+                    .with_context(|| format!("{id}: following the sphere"))?;
+                let reference = reference
+                    .iter()
+                    .zip(&gaze)
+                    .map(|(f, g)| retinal_image(f, frames.eyes, g))
+                    .collect::<Result<Vec<_>, _>>()
+                    .with_context(|| format!("{id}: following the sphere in the reference"))?;
+                observer.judge(
+                    &Clip { frames: &test, fps: sub_fps },
+                    &Clip { frames: &reference, fps: sub_fps },
+                    frames.eyes,
+                )
+            }
+        }
+        .with_context(|| format!("judging {id}"))?;
         cache.scores.insert(id.to_string(), judgement.eyes);
         std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
         study::fsio::write_atomic(&cache_path, &serde_json::to_vec_pretty(&cache)?)
@@ -505,5 +601,35 @@ mod tests {
         assert_eq!(folders.len(), 3);
         assert_eq!(reference_key(&id, ReferenceKind::Sharp), "M2-S2");
         assert_eq!(reference_key(&id, ReferenceKind::Shutter), "M2-S2-T5");
+    }
+
+    #[test]
+    fn a_pursuing_eye_looks_at_the_sphere_at_each_reference_instant() {
+        let (design, preset) = shipped();
+        let sharp = settings(&design, &preset, ReferenceKind::Sharp).with_eye_movement(EyeMovement::Pursuit);
+        for text in ["M2-S2-T3-A3", "M2-S2-T3-A3-stereo"] {
+            let id: StimulusId = text.parse().expect("an id");
+            let gaze = pursuit_gaze(&design, &preset, &id, &sharp).expect("gaze");
+            assert_eq!(gaze.len(), 2 * 4, "{text}: two frames of four sub-frames");
+            for (k, g) in gaze.iter().enumerate() {
+                let (frame, sub) = (15 + k as u32 / 4, k as u32 % 4);
+                let scene = reference_scene(&design, &preset, &id, frame, sub, &sharp).expect("scene");
+                let centre = scene.sphere.centre_at(scene.shutter.open);
+                assert_eq!(g.len(), scene.views.len());
+                for (v, view) in g.iter().zip(&scene.views) {
+                    let p = view.camera.project(centre).expect("in front");
+                    let (w, h) = (f64::from(view.camera.width), f64::from(view.camera.height));
+                    assert!((v.x - p.x.clamp(0.0, w)).abs() < 1e-9 && (v.y - p.y.clamp(0.0, h)).abs() < 1e-9);
+                }
+            }
+            // Left to right, a few pixels per sub-frame while the sphere is in view.
+            let step = gaze[1][0].x - gaze[0][0].x;
+            assert!(step > 1.0 && step < 10.0, "{text}: {step} pixels per sub-frame");
+        }
+        // Fixation leaves the settings as they were before eye movements existed (the score
+        // caches keep their names); pursuit gets caches of its own.
+        let fixation = settings(&design, &preset, ReferenceKind::Sharp);
+        assert!(!serde_json::to_string(&fixation).expect("json").contains("eye_movement"));
+        assert_ne!(fixation.key().expect("key"), sharp.key().expect("key"));
     }
 }
