@@ -226,6 +226,29 @@ struct ScoreCache {
     scores: BTreeMap<String, Vec<f64>>,
 }
 
+impl ScoreCache {
+    /// Writes the cache to `path` atomically, first taking in the scores another prediction
+    /// on the same set and settings wrote there since this one read it (two predictions
+    /// running side by side would otherwise drop each other's scores).
+    fn save(&mut self, path: &Path) -> anyhow::Result<()> {
+        if let Ok(bytes) = std::fs::read(path)
+            && let Ok(other) = serde_json::from_slice::<ScoreCache>(&bytes)
+            && other.format == self.format
+            && other.settings == self.settings
+            && other.stimulus_set_sha256 == self.stimulus_set_sha256
+        {
+            for (id, eyes) in other.scores {
+                self.scores.entry(id).or_insert(eyes);
+            }
+        }
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
+        }
+        study::fsio::write_atomic(path, &serde_json::to_vec_pretty(self)?)
+            .with_context(|| format!("{}: cannot write", path.display()))
+    }
+}
+
 /// Where the observer keeps its work in a set.
 pub fn observer_dir(set: &Path) -> PathBuf {
     set.join("observer")
@@ -495,9 +518,7 @@ pub fn qualities(
         }
         .with_context(|| format!("judging {id}"))?;
         cache.scores.insert(id.to_string(), judgement.eyes);
-        std::fs::create_dir_all(&dir).with_context(|| format!("{}: cannot create", dir.display()))?;
-        study::fsio::write_atomic(&cache_path, &serde_json::to_vec_pretty(&cache)?)
-            .with_context(|| format!("{}: cannot write", cache_path.display()))?;
+        cache.save(&cache_path)?;
         progress.inc(1);
     }
     progress.finish_and_clear();
@@ -601,6 +622,32 @@ mod tests {
         assert_eq!(folders.len(), 3);
         assert_eq!(reference_key(&id, ReferenceKind::Sharp), "M2-S2");
         assert_eq!(reference_key(&id, ReferenceKind::Shutter), "M2-S2-T5");
+    }
+
+    #[test]
+    fn two_predictions_on_one_set_keep_each_others_scores() {
+        let (design, preset) = shipped();
+        let settings = settings(&design, &preset, ReferenceKind::Sharp);
+        let dir = std::env::temp_dir().join(format!("blurlab-score-cache-{}", std::process::id()));
+        let path = dir.join("scores.json");
+        let cache = |set: &str, scores: &[(&str, f64)]| ScoreCache {
+            format: SCORES_FORMAT.into(),
+            stimulus_set_sha256: set.into(),
+            settings: settings.clone(),
+            scores: scores.iter().map(|(id, q)| ((*id).to_owned(), vec![*q])).collect(),
+        };
+        // Both read an empty cache; the first writes A, the second (holding B) then writes.
+        cache("set", &[("A", 9.0)]).save(&path).expect("saved");
+        cache("set", &[("B", 8.0)]).save(&path).expect("saved");
+        let read = |p: &Path| -> ScoreCache { serde_json::from_slice(&std::fs::read(p).expect("read")).expect("json") };
+        let both = read(&path);
+        assert_eq!(both.scores.keys().collect::<Vec<_>>(), ["A", "B"]);
+        // A score of its own wins; another set's scores are not taken in.
+        cache("set", &[("A", 7.0)]).save(&path).expect("saved");
+        assert_eq!(read(&path).scores["A"], [7.0]);
+        cache("other set", &[("C", 6.0)]).save(&path).expect("saved");
+        assert_eq!(read(&path).scores.keys().collect::<Vec<_>>(), ["C"]);
+        std::fs::remove_dir_all(&dir).expect("cleaned up");
     }
 
     #[test]
