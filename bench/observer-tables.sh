@@ -13,9 +13,10 @@
 #                                                # with the reference phase 1 chose
 #   bench/observer-tables.sh all                 # the three steps in a row
 #   bench/observer-tables.sh explore [TABLE...]  # post hoc, every table already seen: the `sharp`
-#                                                # reference seen by a pursuing eye (`pursuit`)
-#                                                # and by a population half fixating, half
-#                                                # pursuing (`both`); TABLE: 5.6.3 5.7.2
+#                                                # reference seen by a fixating eye, by a
+#                                                # pursuing eye (`pursuit`) and by a population
+#                                                # half fixating, half pursuing (`both`);
+#                                                # TABLE: 5.6.3 5.7.2
 #                                                # 6.5.2-sampling 6.5.2-shutter 6.6.2 (default all)
 #
 # The protocol: the reference (and any setting) is chosen on the mono tables only; the stereo
@@ -94,7 +95,7 @@ PY
         6.6.2) render stereo "M2 S2 T3-T5 A3-A5"; args=(stereo-3-interactions thesis-6.6.2-stereo-interactions) ;;
         *) echo "explore: unknown table $table" >&2; exit 2 ;;
       esac
-      for eyes in pursuit both; do
+      for eyes in fixation pursuit both; do
         predict "${args[@]}" "explore/$table-sharp-$eyes" --reference sharp --eye-movement "$eyes"
       done
     done
@@ -105,7 +106,7 @@ PY
     "$0" stereo "$ref"
     ;;
   *)
-    sed -n '2,22p' "$0"
+    sed -n '2,23p' "$0"
     exit 2
     ;;
 esac
