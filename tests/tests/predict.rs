@@ -90,6 +90,22 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     let o = predict(&set, &dir.path().join("flip"), &["--observer", "flip", "--votes", &table]);
     assert!(o.status.success(), "{}", stderr(&o));
 
+    // Eye movements: half fixating, half pursuing, on the `sharp` reference rendered above;
+    // each stimulus keeps both qualities, and its score is their mean. FLIP has none.
+    let both = dir.path().join("both");
+    let o = predict(&set, &both, &["--reference", "sharp", "--eye-movement", "both"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(both.join("predict.json")).unwrap()).unwrap();
+    assert_eq!(json["eye_movement"], "both");
+    for r in json["stimuli"].as_array().unwrap() {
+        let q: Vec<f64> = r["by_eye_movement"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        assert_eq!(q.len(), 2, "{r}");
+        assert!((r["score"].as_f64().unwrap() - 0.5 * (q[0] + q[1])).abs() < 1e-9, "{r}");
+        assert_ne!(q[0], q[1], "{r}");
+    }
+    let o = predict(&set, &dir.path().join("flip-pursuit"), &["--observer", "flip", "--eye-movement", "pursuit"]);
+    assert!(!o.status.success() && stderr(&o).contains("--eye-movement pursuit"), "{}", stderr(&o));
+
     // A set with only the counted trials' sequences (the practice pair's M2-S2-T1-A1 absent)
     // is enough for a forecast by either observer.
     let interactions = dir.path().join("interactions");

@@ -301,6 +301,12 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
             definition.task
         )));
     }
+    if args.observer == ObserverArg::Flip && args.eye_movement != EyeMovementArg::Fixation {
+        let name = if args.eye_movement == EyeMovementArg::Pursuit { "pursuit" } else { "both" };
+        return Err(bad(format!(
+            "--eye-movement {name}: eye movements are ColorVideoVDP's (`--observer cvvdp`); FLIP judges still frames"
+        )));
+    }
     let (ids, labels) = stimuli_of(definition);
     let table = args.votes.as_deref().map(VoteTable::read).transpose().map_err(bad)?;
     let published = table.as_ref().map(|t| match_table(t, &labels)).transpose()?;
