@@ -82,7 +82,7 @@ impl ReferenceKind {
 }
 
 /// How the observer's eyes move while a sequence plays.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum EyeMovement {
     /// The eyes rest: the metric judges the frames as they lie on the screen.
@@ -174,12 +174,17 @@ impl ObserverSettings {
         ObserverSettings { eye_movement, ..self }
     }
 
-    /// The middle instant of each sub-frame of clip frame `frame` (the reference's sub-frames;
-    /// one per frame for `shutter`).
-    fn sub_frame_instants(&self, design: &Design, scene: &FrameScene) -> Vec<f64> {
+    /// Where `scene`'s frame interval starts and how long each of its sub-frames lasts (one
+    /// sub-frame per frame for `shutter`).
+    fn sub_frame_timing(&self, design: &Design, scene: &FrameScene) -> (f64, f64) {
         let fps = design.spec.sequence.fps;
         let start = scene.frame_time - design.spec.sequence.frame_time_offset / fps;
-        let step = 1.0 / (fps * f64::from(self.sub_frames));
+        (start, 1.0 / (fps * f64::from(self.sub_frames)))
+    }
+
+    /// The middle instant of each sub-frame of `scene`'s frame.
+    fn sub_frame_instants(&self, design: &Design, scene: &FrameScene) -> Vec<f64> {
+        let (start, step) = self.sub_frame_timing(design, scene);
         (0..self.sub_frames).map(|s| start + (f64::from(s) + 0.5) * step).collect()
     }
 
@@ -275,9 +280,7 @@ fn reference_scene(
     let mut scene = design.frame_scene_with(preset, id, frame).map_err(|e| BadInput(e.to_string()))?;
     scene.samples_per_pixel = settings.reference_spp;
     scene.antialias = None;
-    let fps = design.spec.sequence.fps;
-    let start = scene.frame_time - design.spec.sequence.frame_time_offset / fps;
-    let step = 1.0 / (fps * f64::from(settings.sub_frames));
+    let (start, step) = settings.sub_frame_timing(design, &scene);
     match settings.reference {
         ReferenceKind::Shutter => {}
         ReferenceKind::Eye => {
