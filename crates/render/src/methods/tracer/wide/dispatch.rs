@@ -51,20 +51,28 @@ impl Isa {
     /// Runs `job` compiled for this set (`job.call` and what it calls must be
     /// `#[inline(always)]` to be compiled for it); on a CPU without the set, compiled for
     /// the baseline.
-    #[inline(always)]
+    ///
+    /// Each set's copy of `job` is compiled in a module of its own ([`on_avx512`],
+    /// [`on_avx2`], [`on_baseline`]), so that the copies are separate codegen units that
+    /// compile side by side: in one unit they made the crate's build one long serial step.
+    /// The crate's unit-test harness, a second opt-level-3 build of the whole crate beside
+    /// the library's, compiles the baseline copy only: no unit test chooses a set (every
+    /// set gives the same bytes, which `tests/tracer_wide.rs` checks on the library as it
+    /// ships).
+    #[inline]
     pub(crate) fn run<J: Job>(self, job: J) -> J::Output {
         match self {
-            #[cfg(target_arch = "x86_64")]
+            #[cfg(all(target_arch = "x86_64", not(test)))]
             Isa::Avx512 => match pulp::x86::V4::try_new() {
-                Some(simd) => simd.vectorize(OnSimd(job)),
-                None => job.call(),
+                Some(simd) => on_avx512::run(simd, job),
+                None => on_baseline::run(job),
             },
-            #[cfg(target_arch = "x86_64")]
+            #[cfg(all(target_arch = "x86_64", not(test)))]
             Isa::Avx2 => match pulp::x86::V3::try_new() {
-                Some(simd) => simd.vectorize(OnSimd(job)),
-                None => job.call(),
+                Some(simd) => on_avx2::run(simd, job),
+                None => on_baseline::run(job),
             },
-            _ => job.call(),
+            _ => on_baseline::run(job),
         }
     }
 }
@@ -78,10 +86,42 @@ pub(crate) trait Job {
     fn call(self) -> Self::Output;
 }
 
-#[cfg(target_arch = "x86_64")]
+/// A job compiled for AVX-512.
+#[cfg(all(target_arch = "x86_64", not(test)))]
+mod on_avx512 {
+    use super::{Job, OnSimd};
+
+    #[inline(never)]
+    pub(super) fn run<J: Job>(simd: pulp::x86::V4, job: J) -> J::Output {
+        simd.vectorize(OnSimd(job))
+    }
+}
+
+/// A job compiled for AVX2.
+#[cfg(all(target_arch = "x86_64", not(test)))]
+mod on_avx2 {
+    use super::{Job, OnSimd};
+
+    #[inline(never)]
+    pub(super) fn run<J: Job>(simd: pulp::x86::V3, job: J) -> J::Output {
+        simd.vectorize(OnSimd(job))
+    }
+}
+
+/// A job compiled for the baseline.
+mod on_baseline {
+    use super::Job;
+
+    #[inline(never)]
+    pub(super) fn run<J: Job>(job: J) -> J::Output {
+        job.call()
+    }
+}
+
+#[cfg(all(target_arch = "x86_64", not(test)))]
 struct OnSimd<J>(J);
 
-#[cfg(target_arch = "x86_64")]
+#[cfg(all(target_arch = "x86_64", not(test)))]
 impl<J: Job> pulp::NullaryFnOnce for OnSimd<J> {
     type Output = J::Output;
 
