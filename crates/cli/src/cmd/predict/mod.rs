@@ -24,6 +24,7 @@ use analysis::forecast::{Agreement, ExpectedVotes, agreement, preference_from_di
 use analysis::plots::{ForecastScatter, SideBySideVotes, VotesFigure, save_figure};
 use analysis::votes::VoteTable;
 use anyhow::Context as _;
+use clap::ValueEnum as _;
 use runner::stimuli::StimulusSet;
 use serde::Serialize;
 use study::StimulusId;
@@ -302,7 +303,7 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
         )));
     }
     if args.observer == ObserverArg::Flip && args.eye_movement != EyeMovementArg::Fixation {
-        let name = if args.eye_movement == EyeMovementArg::Pursuit { "pursuit" } else { "both" };
+        let name = args.eye_movement.to_possible_value().map(|v| v.get_name().to_owned()).unwrap_or_default();
         return Err(bad(format!(
             "--eye-movement {name}: eye movements are ColorVideoVDP's (`--observer cvvdp`); FLIP judges still frames"
         )));
