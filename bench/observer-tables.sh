@@ -16,6 +16,9 @@
 #                                                # reference seen by a fixating eye, by a
 #                                                # pursuing eye (`pursuit`) and by a population
 #                                                # half fixating, half pursuing (`both`);
+#                                                # and each pair judged against itself by a
+#                                                # pursuing eye (`pursuit-pair`, the `sharp`
+#                                                # quality naming the better of the two);
 #                                                # TABLE: 5.6.3 5.7.2
 #                                                # 6.5.2-sampling 6.5.2-shutter 6.6.2 (default all)
 #
@@ -98,6 +101,8 @@ PY
       for eyes in fixation pursuit both; do
         predict "${args[@]}" "explore/$table-sharp-$eyes" --reference sharp --eye-movement "$eyes"
       done
+      predict "${args[@]}" "explore/$table-sharp-pursuit-pair" --reference sharp --eye-movement pursuit \
+        --judging pair
     done
     ;;
   all)
@@ -106,7 +111,7 @@ PY
     "$0" stereo "$ref"
     ;;
   *)
-    sed -n '2,23p' "$0"
+    sed -n '2,29p' "$0"
     exit 2
     ;;
 esac

@@ -106,6 +106,62 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     let o = predict(&set, &dir.path().join("flip-pursuit"), &["--observer", "flip", "--eye-movement", "pursuit"]);
     assert!(!o.status.success() && stderr(&o).contains("--eye-movement pursuit"), "{}", stderr(&o));
 
+    // Each pair judged against itself by a pursuing eye: the `sharp` quality names the better
+    // of the two, the worse one's JOD against it sets the probability; every pair is judged
+    // once and cached, so a second forecast judges nothing and writes the same votes.
+    let pair_args = ["--reference", "sharp", "--eye-movement", "pursuit", "--judging", "pair"];
+    let pair = dir.path().join("pair");
+    let o = predict(&set, &pair, &pair_args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(pair.join("predict.json")).unwrap()).unwrap();
+    assert_eq!(json["judging"], "pair");
+    let d: Vec<Vec<f64>> = json["pair_jod"][0]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|row| row.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect())
+        .collect();
+    let q: Vec<f64> = json["stimuli"].as_array().unwrap().iter().map(|r| r["score"].as_f64().unwrap()).collect();
+    let p: Vec<Vec<f64>> = json["probability"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|row| row.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect())
+        .collect();
+    assert_eq!((d.len(), q.len()), (5, 5));
+    for i in 0..5 {
+        assert_eq!(d[i][i], 0.0);
+        for j in 0..5 {
+            if i == j {
+                continue;
+            }
+            assert!(d[i][j] >= 0.0 && d[i][j] == d[j][i], "{i} {j}: {}", d[i][j]);
+            let better = study::stats::jod_preference(d[i][j], 0.0);
+            let expected = if q[i] > q[j] { better } else { 1.0 - better };
+            assert!((p[i][j] - expected).abs() < 1e-12, "{i} over {j}: {} against {expected}", p[i][j]);
+        }
+    }
+    // A1 (1 sample per pixel) and A5 (16) are far apart judged side by side.
+    let (a1, a5) = (0, 4);
+    assert!(d[a1][a5] > 0.5 && p[a5][a1] > 0.6, "A1-A5: {} JOD, P {}", d[a1][a5], p[a5][a1]);
+    let pairs_cache = std::fs::read_dir(set.join("observer"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.file_name().unwrap().to_string_lossy().starts_with("pairs-"))
+        .unwrap();
+    let cached: serde_json::Value = serde_json::from_slice(&std::fs::read(&pairs_cache).unwrap()).unwrap();
+    assert_eq!(cached["scores"].as_object().unwrap().len(), 10);
+    let stamp = std::fs::metadata(&pairs_cache).unwrap().modified().unwrap();
+    let o = predict(&set, &dir.path().join("pair-again"), &pair_args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(pair.join("votes.csv")).unwrap(),
+        std::fs::read(dir.path().join("pair-again/votes.csv")).unwrap()
+    );
+    assert_eq!(std::fs::metadata(&pairs_cache).unwrap().modified().unwrap(), stamp);
+    let o = predict(&set, &dir.path().join("flip-pair"), &["--observer", "flip", "--judging", "pair"]);
+    assert!(!o.status.success() && stderr(&o).contains("--judging pair"), "{}", stderr(&o));
+
     // A set with only the counted trials' sequences (the practice pair's M2-S2-T1-A1 absent)
     // is enough for a forecast by either observer.
     let interactions = dir.path().join("interactions");

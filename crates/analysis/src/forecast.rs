@@ -9,6 +9,11 @@
 //! - FLIP distances have no such scale; the FLIP observer's probability is that of its
 //!   simulated decision (`runner::flip_observer`): each distance plus Gaussian noise of
 //!   `sigma`, the smaller wins ([`preference_from_distances`]).
+//! - Judged as a pair ([`preference_from_pair`]): the better of the two (by its quality
+//!   against the shared reference) is the other's reference, and the worse one's quality
+//!   against it, `Q_pair`, measures the difference directly: `10 - Q_pair` JOD, so
+//!   `P(better over worse) = Phi(z75 (10 - Q_pair))`. A shared reference that both sequences
+//!   are far from compresses their difference; the pair does not.
 //! - With `m` judges each judging every pair once, stimulus `i` expects
 //!   `m sum_j P(i over j)` votes; David's groups are computed on these expected counts with
 //!   the same critical range as for counted votes ([`ExpectedVotes::groups`]).
@@ -37,6 +42,19 @@ pub fn preference_from_distances(a: f64, b: f64, sigma: f64) -> f64 {
         0.0
     } else {
         0.5
+    }
+}
+
+/// Probability that sequence `i` (quality `q_i` against the shared reference) is preferred
+/// over `j` (`q_j`) when the worse of the two, judged with the better as its reference, has
+/// quality `q_pair` (JOD): `Phi(z75 (10 - q_pair))` for the better one, the complement for the
+/// worse one, a coin toss when the shared qualities tie (then neither is the better).
+pub fn preference_from_pair(q_i: f64, q_j: f64, q_pair: f64) -> f64 {
+    let better = preference_from_jod(10.0, q_pair.min(10.0));
+    match q_i.total_cmp(&q_j) {
+        std::cmp::Ordering::Greater => better,
+        std::cmp::Ordering::Less => 1.0 - better,
+        std::cmp::Ordering::Equal => 0.5,
     }
 }
 
@@ -174,6 +192,25 @@ mod tests {
         // Two noisy distances: the difference has sd sigma sqrt 2.
         let p = preference_from_distances(0.0, 0.005 * std::f64::consts::SQRT_2, 0.005);
         assert!((p - normal_cdf(1.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_pair_judged_against_itself_takes_its_direction_from_the_shared_reference() {
+        // The shared reference sees 0.02 JOD between them; judged as a pair they are 1 JOD
+        // apart, so three people in four prefer the better one.
+        assert!((preference_from_pair(9.05, 9.03, 9.0) - 0.75).abs() < 1e-9);
+        assert!((preference_from_pair(9.03, 9.05, 9.0) - 0.25).abs() < 1e-9);
+        // The magnitude is the pair's alone, however close the shared qualities are.
+        let p = preference_from_pair(9.000_001, 9.0, 7.0);
+        assert!((p - normal_cdf(3.0 * Z75)).abs() < 1e-12, "{p}");
+        // Identical sequences, a tie of the shared qualities, or a pair quality at the
+        // metric's top (or above it by rounding): no preference beyond a coin toss.
+        assert_eq!(preference_from_pair(9.0, 9.0, 8.0), 0.5);
+        assert!((preference_from_pair(9.5, 9.0, 10.0) - 0.5).abs() < 1e-15);
+        assert!((preference_from_pair(9.5, 9.0, 10.000_1) - 0.5).abs() < 1e-15);
+        for (a, b, q) in [(9.1, 9.2, 8.5), (7.0, 9.9, 6.0)] {
+            assert!((preference_from_pair(a, b, q) + preference_from_pair(b, a, q) - 1.0).abs() < 1e-15);
+        }
     }
 
     #[test]

@@ -208,6 +208,7 @@ fn cvvdp_forecasts(
             reference_spp: None,
             sub_frames: super::predict::observer::DEFAULT_SUB_FRAMES,
             eye_movement: super::predict::EyeMovementArg::Fixation,
+            judging: super::predict::JudgingArg::Reference,
             clip: None,
             votes: None,
             judges: Some(p.complete_judges.max(1)),

@@ -226,7 +226,7 @@ fn cvvdp_model(
                 .collect();
             pairs.sort();
             pairs.dedup();
-            let d = distances(&set, &pairs, &settings)?;
+            let d = distances(&set, &design, &preset, &pairs, &settings)?;
             Ok(model.with_cvvdp(Default::default(), d.into_iter().collect()))
         }
     }

@@ -7,6 +7,9 @@
 //!   `--eye-movement pursuit` judges the frames as an eye that follows the sphere sees them;
 //!   `both` forecasts a population of which half fixate and half pursue: each choice
 //!   probability is the mean of the two observers' (an exploration, BENCHMARKS.md).
+//!   `--judging pair` judges each pair against itself: the better of the two by the shared
+//!   reference is the other's reference, and the worse one's quality against it gives the
+//!   probability (`analysis::forecast::preference_from_pair`; also an exploration).
 //! - `--observer flip`: the FLIP observer of `--simulate flip` (distances to the gold
 //!   standard, its default decision noise), as the baseline.
 //!
@@ -20,7 +23,9 @@ pub mod observer;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use analysis::forecast::{Agreement, ExpectedVotes, agreement, preference_from_distances, preference_from_jod};
+use analysis::forecast::{
+    Agreement, ExpectedVotes, agreement, preference_from_distances, preference_from_jod, preference_from_pair,
+};
 use analysis::plots::{ForecastScatter, SideBySideVotes, VotesFigure, save_figure};
 use analysis::votes::VoteTable;
 use anyhow::Context as _;
@@ -83,6 +88,24 @@ impl EyeMovementArg {
     }
 }
 
+/// What sets the size of a choice probability.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JudgingArg {
+    /// The two sequences' qualities against the shared reference.
+    #[default]
+    Reference,
+    /// The pair against itself: the worse one judged with the better one as its reference
+    /// (the better one by the shared reference).
+    Pair,
+}
+
+impl JudgingArg {
+    fn is_reference(&self) -> bool {
+        *self == JudgingArg::Reference
+    }
+}
+
 /// Arguments.
 #[derive(clap::Args)]
 pub struct Args {
@@ -108,6 +131,11 @@ pub struct Args {
     /// the sphere) or `both` (half and half).
     #[arg(long, value_enum, default_value_t = EyeMovementArg::Fixation)]
     pub eye_movement: EyeMovementArg,
+    /// What sets each choice probability: `reference` (the two qualities against the shared
+    /// reference) or `pair` (the worse of the two judged against the better one, which the
+    /// shared reference names).
+    #[arg(long, value_enum, default_value_t = JudgingArg::Reference)]
+    pub judging: JudgingArg,
     /// The clip judged: frames FIRST..END of the set's sequences (0-based, END excluded;
     /// default: every frame of the set's preset).
     #[arg(long, value_parser = parse_clip)]
@@ -182,6 +210,13 @@ pub struct Forecast {
     /// How the observers' eyes move.
     #[serde(skip_serializing_if = "EyeMovementArg::is_fixation")]
     pub eye_movement: EyeMovementArg,
+    /// What sets each choice probability.
+    #[serde(skip_serializing_if = "JudgingArg::is_reference")]
+    pub judging: JudgingArg,
+    /// With `--judging pair`, per eye movement: `pair_jod[m][i][j]`, the JOD between `i` and
+    /// `j` judged as a pair (`10 - Q(worse against better)`; symmetric, 0 on the diagonal).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub pair_jod: Vec<Vec<Vec<f64>>>,
     /// What a score is.
     pub score: String,
     /// Per stimulus.
@@ -308,6 +343,12 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
             "--eye-movement {name}: eye movements are ColorVideoVDP's (`--observer cvvdp`); FLIP judges still frames"
         )));
     }
+    if args.observer == ObserverArg::Flip && args.judging != JudgingArg::Reference {
+        let name = args.judging.to_possible_value().map(|v| v.get_name().to_owned()).unwrap_or_default();
+        return Err(bad(format!(
+            "--judging {name}: pairs are judged by ColorVideoVDP (`--observer cvvdp`); FLIP measures distances to the gold standard"
+        )));
+    }
     let (ids, labels) = stimuli_of(definition);
     let table = args.votes.as_deref().map(VoteTable::read).transpose().map_err(bad)?;
     let published = table.as_ref().map(|t| match_table(t, &labels)).transpose()?;
@@ -323,9 +364,8 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
     };
     let (set, design, preset) = open_set(&args.stimuli, definition, false)?;
     let mut by_movement = vec![Vec::new(); ids.len()];
-    let (rows_score, eyes, expected, settings, score): (Vec<f64>, Vec<Vec<f64>>, ExpectedVotes, _, String) = match args
-        .observer
-    {
+    type Scores = (Vec<f64>, Vec<Vec<f64>>, ExpectedVotes, Option<ObserverSettings>, String, Vec<Vec<Vec<f64>>>);
+    let (rows_score, eyes, expected, settings, score, pair_jod): Scores = match args.observer {
         ObserverArg::Cvvdp => {
             let base = ObserverSettings::new(
                 &design,
@@ -351,19 +391,49 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
                 eyes = vec![Vec::new(); ids.len()];
                 by_movement = (0..ids.len()).map(|i| jods.iter().map(|q| q[i]).collect()).collect();
             }
+            // Per eye movement: the JOD between each pair judged against itself.
+            let mut pair_jods: Vec<Vec<Vec<f64>>> = Vec::new();
+            if args.judging == JudgingArg::Pair {
+                for (&m, q) in movements.iter().zip(&jods) {
+                    let settings = base.clone().with_eye_movement(m);
+                    // (better, worse) by the shared reference; a tie judges the later id
+                    // against the earlier (the probability is a coin toss either way).
+                    let pairs: Vec<(usize, usize)> = (0..ids.len())
+                        .flat_map(|i| ((i + 1)..ids.len()).map(move |j| (i, j)))
+                        .map(|(i, j)| if q[j] > q[i] { (j, i) } else { (i, j) })
+                        .collect();
+                    let by_id: Vec<(StimulusId, StimulusId)> = pairs.iter().map(|&(b, w)| (ids[b], ids[w])).collect();
+                    let judged = observer::pair_qualities(&set, &design, &preset, &by_id, &settings)?;
+                    let mut d = vec![vec![0.0; ids.len()]; ids.len()];
+                    for (&(b, w), key) in pairs.iter().zip(&by_id) {
+                        let jod = 10.0 - judged[key].jod().min(10.0);
+                        (d[b][w], d[w][b]) = (jod, jod);
+                    }
+                    pair_jods.push(d);
+                }
+            }
             let expected = ExpectedVotes::new(labels.clone(), judges, |i, j| {
-                jods.iter().map(|q| preference_from_jod(q[i], q[j])).sum::<f64>() / shares
+                let p = |(k, q): (usize, &Vec<f64>)| match pair_jods.get(k) {
+                    Some(d) => preference_from_pair(q[i], q[j], 10.0 - d[i][j]),
+                    None => preference_from_jod(q[i], q[j]),
+                };
+                jods.iter().enumerate().map(p).sum::<f64>() / shares
             });
             let what = format!(
-                "ColorVideoVDP quality (JOD, 10 = no visible difference) against the `{}` reference{}",
+                "ColorVideoVDP quality (JOD, 10 = no visible difference) against the `{}` reference{}{}",
                 base.reference.name(),
+                if args.judging == JudgingArg::Pair {
+                    " (it names the better of each pair; the pair judged against itself sets the probability)"
+                } else {
+                    ""
+                },
                 match args.eye_movement {
                     EyeMovementArg::Fixation => "",
                     EyeMovementArg::Pursuit => ", seen by an eye that follows the sphere",
                     EyeMovementArg::Both => ", the mean of a fixating and a pursuing eye's",
                 }
             );
-            (jod, eyes, expected, Some(base.with_eye_movement(movements[0])), what)
+            (jod, eyes, expected, Some(base.with_eye_movement(movements[0])), what, pair_jods)
         }
         ObserverArg::Flip => {
             // The counted trials only: practice pairs need not be in the set.
@@ -379,7 +449,7 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
             let what = format!(
                 "mean FLIP distance to the gold standard (the same shutter at the set's highest sampling level); decision noise {sigma} per distance"
             );
-            (dist, vec![Vec::new(); ids.len()], expected, None, what)
+            (dist, vec![Vec::new(); ids.len()], expected, None, what, Vec::new())
         }
     };
     let (critical, groups) = expected.groups(alpha).map_err(bad)?;
@@ -428,6 +498,8 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
         observer: args.observer,
         settings,
         eye_movement: if args.observer == ObserverArg::Cvvdp { args.eye_movement } else { EyeMovementArg::Fixation },
+        judging: args.judging,
+        pair_jod,
         score,
         stimuli,
         probability: expected.probability,
@@ -472,9 +544,12 @@ pub fn markdown(f: &Forecast, command: &str) -> String {
     }
     md.push_str(&format!(
         "\nChoice model: P(i over j) = {}. Expected votes: {} judgements of each pair; David's groups at alpha = {} (ceil(R_c) = {}).\n\n",
-        match f.observer {
-            ObserverArg::Cvvdp => "Phi(z75 (Q_i - Q_j)), z75 = Phi^-1(0.75): 1 JOD = 75 % preference, no fitted slope",
-            ObserverArg::Flip => "Phi((d_j - d_i) / (sigma sqrt 2)): the FLIP observer's noisy decision",
+        match (f.observer, f.judging) {
+            (ObserverArg::Cvvdp, JudgingArg::Reference) =>
+                "Phi(z75 (Q_i - Q_j)), z75 = Phi^-1(0.75): 1 JOD = 75 % preference, no fitted slope",
+            (ObserverArg::Cvvdp, JudgingArg::Pair) =>
+                "Phi(z75 (10 - Q_pair)) if Q_i > Q_j, its complement if Q_i < Q_j, 1/2 on a tie, where Q_pair is the worse of the two judged with the better one as its reference (the pair's JOD below), z75 = Phi^-1(0.75), no fitted slope",
+            (ObserverArg::Flip, _) => "Phi((d_j - d_i) / (sigma sqrt 2)): the FLIP observer's noisy decision",
         },
         f.judges,
         f.alpha,
@@ -503,6 +578,22 @@ pub fn markdown(f: &Forecast, command: &str) -> String {
             r.votes,
             r.published.map_or("-".into(), |p| p.to_string())
         ));
+    }
+    for (k, d) in f.pair_jod.iter().enumerate() {
+        let movement = match (f.eye_movement, k) {
+            (EyeMovementArg::Both, 0) => " (fixating eye)",
+            (EyeMovementArg::Both, _) => " (pursuing eye)",
+            _ => "",
+        };
+        md.push_str(&format!(
+            "\nJOD between the two sequences of each pair, judged against each other{movement}:\n\n|   |"
+        ));
+        let labels: Vec<&str> = f.stimuli.iter().map(|r| r.label.as_str()).collect();
+        md.push_str(&labels.iter().map(|l| format!(" {l} |")).collect::<String>());
+        md.push_str(&format!("\n| --- |{}\n", " ---: |".repeat(labels.len())));
+        for (l, row) in labels.iter().zip(d) {
+            md.push_str(&format!("| {l} |{}\n", row.iter().map(|v| format!(" {v:.3} |")).collect::<String>()));
+        }
     }
     let fmt_groups =
         |g: &[Vec<String>]| g.iter().map(|m| format!("{{{}}}", m.join(", "))).collect::<Vec<_>>().join(" ");

@@ -232,6 +232,28 @@ struct ScoreCache {
 }
 
 impl ScoreCache {
+    /// The cache at `path` for `set` under `settings`; empty where there is none yet, or
+    /// where the file holds another set's or setting's scores under a colliding name.
+    fn open(path: &Path, set: &StimulusSet, settings: &ObserverSettings) -> anyhow::Result<ScoreCache> {
+        let fresh = || ScoreCache {
+            format: SCORES_FORMAT.into(),
+            stimulus_set_sha256: set.sha256.clone(),
+            settings: settings.clone(),
+            scores: BTreeMap::new(),
+        };
+        match std::fs::read(path) {
+            Ok(bytes) => {
+                let c: ScoreCache = serde_json::from_slice(&bytes).with_context(|| {
+                    format!("{}: not a score cache ({SCORES_FORMAT}); delete it to recompute", path.display())
+                })?;
+                let same = c.format == SCORES_FORMAT && c.settings == *settings && c.stimulus_set_sha256 == set.sha256;
+                Ok(if same { c } else { fresh() })
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(fresh()),
+            Err(e) => Err(anyhow::Error::new(e).context(format!("{}: cannot read", path.display()))),
+        }
+    }
+
     /// Writes the cache to `path` atomically, first taking in the scores another prediction
     /// on the same set and settings wrote there since this one read it (two predictions
     /// running side by side would otherwise drop each other's scores).
@@ -425,6 +447,21 @@ impl<'a> References<'a> {
     }
 }
 
+/// Frames `settings.clip` of `id`'s sequence in the set, and the eyes side by side in them.
+fn load_clip(set: &StimulusSet, id: &StimulusId, settings: &ObserverSettings) -> anyhow::Result<(Vec<SrgbImage>, u32)> {
+    let mut frames = runner::flip_observer::load_frames(set, id)?;
+    let (first, end) = (settings.clip.0 as usize, settings.clip.1 as usize);
+    if end > frames.images.len() {
+        return Err(BadInput(format!(
+            "--clip {first}..{end}: sequence {id} has {} frames in {}",
+            frames.images.len(),
+            set.dir.display()
+        ))
+        .into());
+    }
+    Ok((frames.images.drain(first..end).collect(), frames.eyes))
+}
+
 /// Each stimulus's quality (each eye's JOD) under `settings`, from the cache where it holds
 /// them, else judged (references rendered as needed) and cached one by one.
 pub fn qualities(
@@ -435,31 +472,8 @@ pub fn qualities(
     settings: &ObserverSettings,
     device: render::DeviceChoice,
 ) -> anyhow::Result<BTreeMap<StimulusId, Judgement>> {
-    let dir = observer_dir(&set.dir);
-    let cache_path = dir.join(format!("scores-{}.json", settings.key()?));
-    let mut cache = match std::fs::read(&cache_path) {
-        Ok(bytes) => {
-            let c: ScoreCache = serde_json::from_slice(&bytes).with_context(|| {
-                format!("{}: not a score cache ({SCORES_FORMAT}); delete it to recompute", cache_path.display())
-            })?;
-            if c.format != SCORES_FORMAT || c.settings != *settings || c.stimulus_set_sha256 != set.sha256 {
-                // Another set's or setting's scores under a colliding name: start afresh.
-                ScoreCache { scores: BTreeMap::new(), ..c }
-            } else {
-                c
-            }
-        }
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => ScoreCache {
-            format: SCORES_FORMAT.into(),
-            stimulus_set_sha256: set.sha256.clone(),
-            settings: settings.clone(),
-            scores: BTreeMap::new(),
-        },
-        Err(e) => return Err(anyhow::Error::new(e).context(format!("{}: cannot read", cache_path.display()))),
-    };
-    cache.format = SCORES_FORMAT.into();
-    cache.settings = settings.clone();
-    cache.stimulus_set_sha256 = set.sha256.clone();
+    let cache_path = observer_dir(&set.dir).join(format!("scores-{}.json", settings.key()?));
+    let mut cache = ScoreCache::open(&cache_path, set, settings)?;
     let todo: Vec<StimulusId> = ids.iter().filter(|id| !cache.scores.contains_key(&id.to_string())).copied().collect();
     let references = References::new(&set.dir, design, preset, settings, device);
     let to_render = references.missing(&todo);
@@ -482,41 +496,27 @@ pub fn qualities(
     let mut renderer = None;
     for id in &todo {
         progress.set_message(id.to_string());
-        let frames = runner::flip_observer::load_frames(set, id)?;
-        let (first, end) = (settings.clip.0 as usize, settings.clip.1 as usize);
-        if end > frames.images.len() {
-            return Err(BadInput(format!(
-                "--clip {first}..{end}: sequence {id} has {} frames in {}",
-                frames.images.len(),
-                set.dir.display()
-            ))
-            .into());
-        }
+        let (test, eyes) = load_clip(set, id, settings)?;
         let reference = references.load_or_render(id, &mut renderer, env.as_ref(), &progress)?;
-        let test = &frames.images[first..end];
         let sub_fps = settings.fps * f64::from(settings.sub_frames);
         let judgement = match settings.eye_movement {
             EyeMovement::Fixation => observer.judge(
-                &Clip { frames: test, fps: settings.fps },
+                &Clip { frames: &test, fps: settings.fps },
                 &Clip { frames: &reference, fps: sub_fps },
-                frames.eyes,
+                eyes,
             ),
             EyeMovement::Pursuit => {
                 use perceptual::pursuit::{retinal_clip, retinal_image};
                 let gaze = pursuit_gaze(design, preset, id, settings)?;
-                let test = retinal_clip(test, settings.sub_frames, frames.eyes, &gaze)
+                let test = retinal_clip(&test, settings.sub_frames, eyes, &gaze)
                     .with_context(|| format!("{id}: following the sphere"))?;
                 let reference = reference
                     .iter()
                     .zip(&gaze)
-                    .map(|(f, g)| retinal_image(f, frames.eyes, g))
+                    .map(|(f, g)| retinal_image(f, eyes, g))
                     .collect::<Result<Vec<_>, _>>()
                     .with_context(|| format!("{id}: following the sphere in the reference"))?;
-                observer.judge(
-                    &Clip { frames: &test, fps: sub_fps },
-                    &Clip { frames: &reference, fps: sub_fps },
-                    frames.eyes,
-                )
+                observer.judge(&Clip { frames: &test, fps: sub_fps }, &Clip { frames: &reference, fps: sub_fps }, eyes)
             }
         }
         .with_context(|| format!("judging {id}"))?;
@@ -531,37 +531,82 @@ pub fn qualities(
         .collect())
 }
 
+/// The key of a pair in a pair cache.
+fn pair_key(reference: &StimulusId, test: &StimulusId) -> String {
+    format!("{test} against {reference}")
+}
+
+/// Each pair's quality: the `test` sequence judged with another sequence of the set, the
+/// pair's `reference`, as its reference, over the clip (no rendered reference). Under
+/// fixation both clips are judged at the frame rate; under pursuit each is held for the
+/// settings' sub-frames and followed around its own sphere. Cached one pair at a time in
+/// `SET/observer/pairs-KEY.json`, so a killed prediction resumes.
+pub fn pair_qualities(
+    set: &StimulusSet,
+    design: &Design,
+    preset: &Preset,
+    pairs: &[(StimulusId, StimulusId)],
+    settings: &ObserverSettings,
+) -> anyhow::Result<BTreeMap<(StimulusId, StimulusId), Judgement>> {
+    let cache_path = observer_dir(&set.dir).join(format!("pairs-{}.json", settings.key()?));
+    let mut cache = ScoreCache::open(&cache_path, set, settings)?;
+    let todo: Vec<&(StimulusId, StimulusId)> =
+        pairs.iter().filter(|(r, t)| !cache.scores.contains_key(&pair_key(r, t))).collect();
+    let progress = if todo.is_empty() {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(todo.len() as u64).with_style(
+            indicatif::ProgressStyle::with_template("observer {bar:40} {pos}/{len} pairs ({msg}) {elapsed} ETA {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        )
+    };
+    let observer = VideoObserver::new(settings.display(), Threads::Pool).map_err(|e| BadInput(e.to_string()))?;
+    // Each sequence's clip as the metric sees it, loaded once: the frames (held and followed
+    // under pursuit), their rate and the eyes side by side.
+    let mut clips: BTreeMap<StimulusId, (Vec<SrgbImage>, f64, u32)> = BTreeMap::new();
+    for (r, t) in todo {
+        progress.set_message(format!("{t} against {r}"));
+        for id in [r, t] {
+            if clips.contains_key(id) {
+                continue;
+            }
+            let (clip, eyes) = load_clip(set, id, settings)?;
+            let seen = match settings.eye_movement {
+                EyeMovement::Fixation => (clip, settings.fps),
+                EyeMovement::Pursuit => {
+                    let gaze = pursuit_gaze(design, preset, id, settings)?;
+                    let held = perceptual::pursuit::retinal_clip(&clip, settings.sub_frames, eyes, &gaze)
+                        .with_context(|| format!("{id}: following the sphere"))?;
+                    (held, settings.fps * f64::from(settings.sub_frames))
+                }
+            };
+            clips.insert(*id, (seen.0, seen.1, eyes));
+        }
+        let ((test, fps, eyes), (reference, ..)) = (&clips[t], &clips[r]);
+        let judgement = observer
+            .judge(&Clip { frames: test, fps: *fps }, &Clip { frames: reference, fps: *fps }, *eyes)
+            .with_context(|| format!("judging {t} against {r}"))?;
+        cache.scores.insert(pair_key(r, t), judgement.eyes);
+        cache.save(&cache_path)?;
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+    Ok(pairs
+        .iter()
+        .filter_map(|(r, t)| cache.scores.get(&pair_key(r, t)).map(|eyes| ((*r, *t), Judgement { eyes: eyes.clone() })))
+        .collect())
+}
+
 /// JOD distances `10 - Q(candidate against reference)` of each `(reference, candidate)` pair,
 /// over the clip (matching trials: the candidate nearer the shown reference is picked).
 pub fn distances(
     set: &StimulusSet,
+    design: &Design,
+    preset: &Preset,
     pairs: &[(StimulusId, StimulusId)],
     settings: &ObserverSettings,
 ) -> anyhow::Result<BTreeMap<(StimulusId, StimulusId), f64>> {
-    let observer = VideoObserver::new(settings.display(), Threads::Pool).map_err(|e| BadInput(e.to_string()))?;
-    let mut frames = BTreeMap::new();
-    let mut out = BTreeMap::new();
-    let (first, end) = (settings.clip.0 as usize, settings.clip.1 as usize);
-    for (r, c) in pairs {
-        for id in [r, c] {
-            if !frames.contains_key(id) {
-                frames.insert(*id, runner::flip_observer::load_frames(set, id)?);
-            }
-        }
-        let (fr, fc) = (&frames[r], &frames[c]);
-        if end > fr.images.len().min(fc.images.len()) {
-            return Err(BadInput(format!("--clip {first}..{end}: {r} or {c} has fewer frames")).into());
-        }
-        let j = observer
-            .judge(
-                &Clip { frames: &fc.images[first..end], fps: settings.fps },
-                &Clip { frames: &fr.images[first..end], fps: settings.fps },
-                fc.eyes,
-            )
-            .with_context(|| format!("judging {c} against {r}"))?;
-        out.insert((*r, *c), 10.0 - j.jod());
-    }
-    Ok(out)
+    Ok(pair_qualities(set, design, preset, pairs, settings)?.into_iter().map(|(k, j)| (k, 10.0 - j.jod())).collect())
 }
 
 #[cfg(test)]
