@@ -175,7 +175,15 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     }
 
     // A simulated session with the same model (the runner also shows the briefing's examples).
+    // Rendering them into the set changes its content hash but none of the judged sequences:
+    // each cached score keeps its sequence's manifest, so nothing is judged again.
+    let stamp = std::fs::metadata(&cache).unwrap().modified().unwrap();
     render_quick_set(&shipped_design(), "M2 S3 T1,T5 A5", &set);
+    let grown = dir.path().join("grown");
+    let o = predict(&set, &grown, &["--votes", &table]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(out.join("votes.csv")).unwrap(), std::fs::read(grown.join("votes.csv")).unwrap());
+    assert_eq!(std::fs::metadata(&cache).unwrap().modified().unwrap(), stamp);
     let experiment = text(&repo_root().join("experiments/mono-2-sampling-2afc.toml"));
     let results = text(&dir.path().join("results"));
     let o = run(&[

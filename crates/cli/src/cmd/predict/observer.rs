@@ -51,7 +51,7 @@ const REFERENCE_STREAM: u64 = 0x5EF3_2E9C;
 pub const DEFAULT_SUB_FRAMES: u32 = 4;
 
 /// Format tag of the score cache.
-const SCORES_FORMAT: &str = "blurlab-observer-scores/1";
+const SCORES_FORMAT: &str = "blurlab-observer-scores/2";
 
 /// What each sequence is compared with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
@@ -220,52 +220,116 @@ impl ObserverSettings {
     }
 }
 
-/// The cached qualities of one set under one setting.
+/// The cached qualities of one set under one setting, each stamped with the manifests of the
+/// sequences it was judged from, so that rendering more sequences into the set (or
+/// re-rendering some) keeps every other score.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 struct ScoreCache {
     format: String,
-    /// The set's content hash the scores were computed from.
+    settings: ObserverSettings,
+    /// Per key (a sequence's id, or `TEST against REFERENCE` for a pair): the JOD of each eye
+    /// and the manifests judged.
+    scores: BTreeMap<String, CachedScore>,
+}
+
+/// One cached quality.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct CachedScore {
+    /// SHA-256 of the manifest of each sequence judged (the test first, then a pair's
+    /// reference), as the set's index records them.
+    manifests: Vec<String>,
+    /// Each eye's JOD.
+    eyes: Vec<f64>,
+}
+
+/// The score cache of earlier versions, keyed by the whole set's content hash.
+#[derive(Deserialize)]
+struct WholeSetScoreCache {
+    format: String,
     stimulus_set_sha256: String,
     settings: ObserverSettings,
-    /// Per sequence (by id): each eye's JOD.
     scores: BTreeMap<String, Vec<f64>>,
 }
 
+/// Format tag of the score cache of earlier versions.
+const WHOLE_SET_SCORES_FORMAT: &str = "blurlab-observer-scores/1";
+
+/// The manifests a cache key names in `set` (the test first), or `None` where the key is not
+/// one or the set does not hold its sequences.
+fn key_manifests(set: &StimulusSet, key: &str) -> Option<Vec<String>> {
+    key.split(" against ")
+        .map(|id| {
+            let id: StimulusId = id.parse().ok()?;
+            set.index.sequences.iter().find(|e| e.id == id).map(|e| e.manifest_sha256.clone())
+        })
+        .collect()
+}
+
 impl ScoreCache {
-    /// The cache at `path` for `set` under `settings`; empty where there is none yet, or
-    /// where the file holds another set's or setting's scores under a colliding name.
+    /// The cache at `path` for `set` under `settings`, holding only the scores judged from
+    /// the set's present sequences; empty where there is none yet, or where the file holds
+    /// another setting's scores under a colliding name. A cache of the earlier whole-set
+    /// format is taken in where it was computed from this very set.
     fn open(path: &Path, set: &StimulusSet, settings: &ObserverSettings) -> anyhow::Result<ScoreCache> {
-        let fresh = || ScoreCache {
-            format: SCORES_FORMAT.into(),
-            stimulus_set_sha256: set.sha256.clone(),
-            settings: settings.clone(),
-            scores: BTreeMap::new(),
+        let mut cache =
+            ScoreCache { format: SCORES_FORMAT.into(), settings: settings.clone(), scores: BTreeMap::new() };
+        let bytes = match std::fs::read(path) {
+            Ok(bytes) => bytes,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(cache),
+            Err(e) => return Err(anyhow::Error::new(e).context(format!("{}: cannot read", path.display()))),
         };
-        match std::fs::read(path) {
-            Ok(bytes) => {
-                let c: ScoreCache = serde_json::from_slice(&bytes).with_context(|| {
-                    format!("{}: not a score cache ({SCORES_FORMAT}); delete it to recompute", path.display())
-                })?;
-                let same = c.format == SCORES_FORMAT && c.settings == *settings && c.stimulus_set_sha256 == set.sha256;
-                Ok(if same { c } else { fresh() })
+        let not_a_cache = || format!("{}: not a score cache ({SCORES_FORMAT}); delete it to recompute", path.display());
+        let format = serde_json::from_slice::<serde_json::Value>(&bytes).with_context(not_a_cache)?["format"].clone();
+        if format == WHOLE_SET_SCORES_FORMAT {
+            let old: WholeSetScoreCache = serde_json::from_slice(&bytes).with_context(not_a_cache)?;
+            if old.format == WHOLE_SET_SCORES_FORMAT
+                && old.settings == *settings
+                && old.stimulus_set_sha256 == set.sha256
+            {
+                for (key, eyes) in old.scores {
+                    if let Some(manifests) = key_manifests(set, &key) {
+                        cache.scores.insert(key, CachedScore { manifests, eyes });
+                    }
+                }
             }
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(fresh()),
-            Err(e) => Err(anyhow::Error::new(e).context(format!("{}: cannot read", path.display()))),
+            return Ok(cache);
         }
+        let stored: ScoreCache = serde_json::from_slice(&bytes).with_context(not_a_cache)?;
+        if stored.format == SCORES_FORMAT && stored.settings == *settings {
+            cache.scores = stored
+                .scores
+                .into_iter()
+                .filter(|(key, score)| key_manifests(set, key).as_ref() == Some(&score.manifests))
+                .collect();
+        }
+        Ok(cache)
+    }
+
+    /// The cached JOD of each eye under `key`, if it was judged from `set`'s present sequences.
+    fn get(&self, set: &StimulusSet, key: &str) -> Option<&Vec<f64>> {
+        let score = self.scores.get(key)?;
+        (key_manifests(set, key).as_ref() == Some(&score.manifests)).then_some(&score.eyes)
+    }
+
+    /// Records the JOD of each eye under `key`, judged from `set`'s present sequences.
+    fn insert(&mut self, set: &StimulusSet, key: String, eyes: Vec<f64>) -> anyhow::Result<()> {
+        let manifests = key_manifests(set, &key)
+            .ok_or_else(|| anyhow::anyhow!("{key}: not a sequence (or pair of sequences) of {}", set.dir.display()))?;
+        self.scores.insert(key, CachedScore { manifests, eyes });
+        Ok(())
     }
 
     /// Writes the cache to `path` atomically, first taking in the scores another prediction
-    /// on the same set and settings wrote there since this one read it (two predictions
-    /// running side by side would otherwise drop each other's scores).
+    /// under the same settings wrote there since this one read it (two predictions running
+    /// side by side would otherwise drop each other's scores); a score of its own wins.
     fn save(&mut self, path: &Path) -> anyhow::Result<()> {
         if let Ok(bytes) = std::fs::read(path)
             && let Ok(other) = serde_json::from_slice::<ScoreCache>(&bytes)
             && other.format == self.format
             && other.settings == self.settings
-            && other.stimulus_set_sha256 == self.stimulus_set_sha256
         {
-            for (id, eyes) in other.scores {
-                self.scores.entry(id).or_insert(eyes);
+            for (key, score) in other.scores {
+                self.scores.entry(key).or_insert(score);
             }
         }
         if let Some(dir) = path.parent() {
@@ -474,7 +538,7 @@ pub fn qualities(
 ) -> anyhow::Result<BTreeMap<StimulusId, Judgement>> {
     let cache_path = observer_dir(&set.dir).join(format!("scores-{}.json", settings.key()?));
     let mut cache = ScoreCache::open(&cache_path, set, settings)?;
-    let todo: Vec<StimulusId> = ids.iter().filter(|id| !cache.scores.contains_key(&id.to_string())).copied().collect();
+    let todo: Vec<StimulusId> = ids.iter().filter(|id| cache.get(set, &id.to_string()).is_none()).copied().collect();
     let references = References::new(&set.dir, design, preset, settings, device);
     let to_render = references.missing(&todo);
     let progress = if todo.is_empty() {
@@ -520,14 +584,14 @@ pub fn qualities(
             }
         }
         .with_context(|| format!("judging {id}"))?;
-        cache.scores.insert(id.to_string(), judgement.eyes);
+        cache.insert(set, id.to_string(), judgement.eyes)?;
         cache.save(&cache_path)?;
         progress.inc(1);
     }
     progress.finish_and_clear();
     Ok(ids
         .iter()
-        .filter_map(|id| cache.scores.get(&id.to_string()).map(|eyes| (*id, Judgement { eyes: eyes.clone() })))
+        .filter_map(|id| cache.get(set, &id.to_string()).map(|eyes| (*id, Judgement { eyes: eyes.clone() })))
         .collect())
 }
 
@@ -551,7 +615,7 @@ pub fn pair_qualities(
     let cache_path = observer_dir(&set.dir).join(format!("pairs-{}.json", settings.key()?));
     let mut cache = ScoreCache::open(&cache_path, set, settings)?;
     let todo: Vec<&(StimulusId, StimulusId)> =
-        pairs.iter().filter(|(r, t)| !cache.scores.contains_key(&pair_key(r, t))).collect();
+        pairs.iter().filter(|(r, t)| cache.get(set, &pair_key(r, t)).is_none()).collect();
     let progress = if todo.is_empty() {
         indicatif::ProgressBar::hidden()
     } else {
@@ -586,14 +650,14 @@ pub fn pair_qualities(
         let judgement = observer
             .judge(&Clip { frames: test, fps: *fps }, &Clip { frames: reference, fps: *fps }, *eyes)
             .with_context(|| format!("judging {t} against {r}"))?;
-        cache.scores.insert(pair_key(r, t), judgement.eyes);
+        cache.insert(set, pair_key(r, t), judgement.eyes)?;
         cache.save(&cache_path)?;
         progress.inc(1);
     }
     progress.finish_and_clear();
     Ok(pairs
         .iter()
-        .filter_map(|(r, t)| cache.scores.get(&pair_key(r, t)).map(|eyes| ((*r, *t), Judgement { eyes: eyes.clone() })))
+        .filter_map(|(r, t)| cache.get(set, &pair_key(r, t)).map(|eyes| ((*r, *t), Judgement { eyes: eyes.clone() })))
         .collect())
 }
 
@@ -672,29 +736,98 @@ mod tests {
         assert_eq!(reference_key(&id, ReferenceKind::Shutter), "M2-S2-T5");
     }
 
+    /// A set of the sequences `(id, manifest sha256)` as its index lists them (no files).
+    fn indexed_set(entries: &[(&str, &str)]) -> StimulusSet {
+        let index = study::manifest::SetIndex {
+            format: study::manifest::INDEX_FORMAT.into(),
+            design: "navarro2011".into(),
+            design_sha256: "design".into(),
+            preset: "clip".into(),
+            sampling: Default::default(),
+            sequences: entries
+                .iter()
+                .map(|(id, sha)| study::manifest::IndexEntry {
+                    id: id.parse().expect("an id"),
+                    folder: (*id).to_owned(),
+                    manifest_sha256: (*sha).to_owned(),
+                })
+                .collect(),
+        };
+        StimulusSet {
+            dir: PathBuf::from("set"),
+            sha256: index.content_sha256(),
+            index,
+            index_sha256: String::new(),
+            sequences: BTreeMap::new(),
+        }
+    }
+
     #[test]
-    fn two_predictions_on_one_set_keep_each_others_scores() {
+    fn cached_scores_outlive_changes_to_other_sequences_of_the_set() {
         let (design, preset) = shipped();
         let settings = settings(&design, &preset, ReferenceKind::Sharp);
         let dir = std::env::temp_dir().join(format!("blurlab-score-cache-{}", std::process::id()));
         let path = dir.join("scores.json");
-        let cache = |set: &str, scores: &[(&str, f64)]| ScoreCache {
-            format: SCORES_FORMAT.into(),
-            stimulus_set_sha256: set.into(),
-            settings: settings.clone(),
-            scores: scores.iter().map(|(id, q)| ((*id).to_owned(), vec![*q])).collect(),
+        let (a, b, c) = ("M1-S1-T1-A1", "M1-S1-T1-A2", "M1-S1-T1-A3");
+        let pair = format!("{a} against {b}");
+        let set = indexed_set(&[(a, "a"), (b, "b")]);
+        let open = |set: &StimulusSet| ScoreCache::open(&path, set, &settings).expect("opened");
+        let with = |set: &StimulusSet, scores: &[(&str, f64)]| {
+            let mut cache = open(set);
+            cache.scores.clear();
+            for (key, q) in scores {
+                cache.insert(set, (*key).to_owned(), vec![*q]).expect("a key of the set");
+            }
+            cache
         };
-        // Both read an empty cache; the first writes A, the second (holding B) then writes.
-        cache("set", &[("A", 9.0)]).save(&path).expect("saved");
-        cache("set", &[("B", 8.0)]).save(&path).expect("saved");
-        let read = |p: &Path| -> ScoreCache { serde_json::from_slice(&std::fs::read(p).expect("read")).expect("json") };
-        let both = read(&path);
-        assert_eq!(both.scores.keys().collect::<Vec<_>>(), ["A", "B"]);
-        // A score of its own wins; another set's scores are not taken in.
-        cache("set", &[("A", 7.0)]).save(&path).expect("saved");
-        assert_eq!(read(&path).scores["A"], [7.0]);
-        cache("other set", &[("C", 6.0)]).save(&path).expect("saved");
-        assert_eq!(read(&path).scores.keys().collect::<Vec<_>>(), ["C"]);
+
+        // Two predictions side by side, both from an empty cache: each keeps the other's.
+        with(&set, &[(a, 9.0)]).save(&path).expect("saved");
+        with(&set, &[(b, 8.0), (pair.as_str(), 7.5)]).save(&path).expect("saved");
+        let cache = open(&set);
+        assert_eq!((cache.get(&set, a), cache.get(&set, b)), (Some(&vec![9.0]), Some(&vec![8.0])));
+        assert_eq!(cache.get(&set, &pair), Some(&vec![7.5]));
+        assert_eq!(cache.scores[&pair].manifests, ["a", "b"]);
+        // A score of its own wins.
+        with(&set, &[(a, 7.0)]).save(&path).expect("saved");
+        assert_eq!(open(&set).get(&set, a), Some(&vec![7.0]));
+
+        // A new sequence rendered into the set keeps every score; a re-rendered one drops its
+        // own and its pairs', and nothing else.
+        let grown = indexed_set(&[(a, "a"), (b, "b"), (c, "c")]);
+        assert_ne!(grown.sha256, set.sha256);
+        let cache = open(&grown);
+        assert_eq!(cache.scores.len(), 3);
+        let rerendered = indexed_set(&[(a, "a"), (b, "b2"), (c, "c")]);
+        let cache = open(&rerendered);
+        assert_eq!(cache.scores.keys().collect::<Vec<_>>(), [a]);
+        // An entry that does not match is never handed out, whatever the file says.
+        let stale = open(&set);
+        assert_eq!(stale.get(&rerendered, b), None);
+        assert!(open(&set).insert(&set, c.to_owned(), vec![1.0]).is_err(), "{c} is not in the first set");
+
+        // Another setting's scores under the same name are not taken in.
+        let other = ObserverSettings { reference_spp: 65, ..settings.clone() };
+        assert!(ScoreCache::open(&path, &set, &other).expect("opened").scores.is_empty());
+
+        // The earlier whole-set cache is taken in for the set it was computed from only.
+        let whole_set = |sha: &str| {
+            let json = serde_json::json!({
+                "format": WHOLE_SET_SCORES_FORMAT,
+                "stimulus_set_sha256": sha,
+                "settings": settings,
+                "scores": { a: [6.0], pair.as_str(): [5.0] },
+            });
+            std::fs::write(&path, serde_json::to_vec(&json).expect("json")).expect("written");
+        };
+        whole_set(&set.sha256);
+        let cache = open(&set);
+        assert_eq!((cache.get(&set, a), cache.get(&set, &pair)), (Some(&vec![6.0]), Some(&vec![5.0])));
+        whole_set(&grown.sha256);
+        assert!(open(&set).scores.is_empty());
+        std::fs::write(&path, b"{ not json").expect("written");
+        let e = ScoreCache::open(&path, &set, &settings).expect_err("not a cache");
+        assert!(format!("{e:#}").contains("not a score cache"), "{e:#}");
         std::fs::remove_dir_all(&dir).expect("cleaned up");
     }
 
