@@ -526,6 +526,50 @@ fn load_clip(set: &StimulusSet, id: &StimulusId, settings: &ObserverSettings) ->
     Ok((frames.images.drain(first..end).collect(), frames.eyes))
 }
 
+/// Where a pursuing eye looks at each sub-frame of `id`'s clip ([`pursuit_gaze`]), or `None`
+/// for a fixating one.
+fn pursuit_gaze_if_pursuing(
+    design: &Design,
+    preset: &Preset,
+    id: &StimulusId,
+    settings: &ObserverSettings,
+) -> anyhow::Result<Option<Vec<Vec<perceptual::pursuit::Gaze>>>> {
+    match settings.eye_movement {
+        EyeMovement::Fixation => Ok(None),
+        EyeMovement::Pursuit => pursuit_gaze(design, preset, id, settings).map(Some),
+    }
+}
+
+/// `id`'s clip as the metric sees it, and its rate: the frames as shown for a fixating eye
+/// (no `gaze`), else each held for the settings' sub-frames and followed along `gaze`.
+fn clip_as_seen(
+    clip: Vec<SrgbImage>,
+    eyes: u32,
+    id: &StimulusId,
+    settings: &ObserverSettings,
+    gaze: Option<&[Vec<perceptual::pursuit::Gaze>]>,
+) -> anyhow::Result<(Vec<SrgbImage>, f64)> {
+    match gaze {
+        None => Ok((clip, settings.fps)),
+        Some(gaze) => {
+            let held = perceptual::pursuit::retinal_clip(&clip, settings.sub_frames, eyes, gaze)
+                .with_context(|| format!("{id}: following the sphere"))?;
+            Ok((held, settings.fps * f64::from(settings.sub_frames)))
+        }
+    }
+}
+
+/// The observer's progress bar over `len` steps of `what` (hidden when there are none).
+fn progress_bar(len: usize, what: &str) -> indicatif::ProgressBar {
+    if len == 0 {
+        return indicatif::ProgressBar::hidden();
+    }
+    let template = format!("observer {{bar:40}} {{pos}}/{{len}} {what} ({{msg}}) {{elapsed}} ETA {{eta}}");
+    indicatif::ProgressBar::new(len as u64).with_style(
+        indicatif::ProgressStyle::with_template(&template).unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    )
+}
+
 /// Each stimulus's quality (each eye's JOD) under `settings`, from the cache where it holds
 /// them, else judged (references rendered as needed) and cached one by one.
 pub fn qualities(
@@ -541,16 +585,7 @@ pub fn qualities(
     let todo: Vec<StimulusId> = ids.iter().filter(|id| cache.get(set, &id.to_string()).is_none()).copied().collect();
     let references = References::new(&set.dir, design, preset, settings, device);
     let to_render = references.missing(&todo);
-    let progress = if todo.is_empty() {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new((to_render + todo.len()) as u64).with_style(
-            indicatif::ProgressStyle::with_template(
-                "observer {bar:40} {pos}/{len} reference frames and sequences ({msg}) {elapsed} ETA {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        )
-    };
+    let progress = progress_bar(to_render + todo.len(), "reference frames and sequences");
     let observer = VideoObserver::new(settings.display(), Threads::Pool).map_err(|e| BadInput(e.to_string()))?;
     let env = if to_render > 0 {
         Some(render::env::EnvironmentMap::from_lighting(&design.lighting).map_err(|e| BadInput(e.to_string()))?)
@@ -562,28 +597,21 @@ pub fn qualities(
         progress.set_message(id.to_string());
         let (test, eyes) = load_clip(set, id, settings)?;
         let reference = references.load_or_render(id, &mut renderer, env.as_ref(), &progress)?;
+        let gaze = pursuit_gaze_if_pursuing(design, preset, id, settings)?;
+        let (test, test_fps) = clip_as_seen(test, eyes, id, settings, gaze.as_deref())?;
+        let reference = match &gaze {
+            None => reference,
+            Some(gaze) => reference
+                .iter()
+                .zip(gaze)
+                .map(|(f, g)| perceptual::pursuit::retinal_image(f, eyes, g))
+                .collect::<Result<Vec<_>, _>>()
+                .with_context(|| format!("{id}: following the sphere in the reference"))?,
+        };
         let sub_fps = settings.fps * f64::from(settings.sub_frames);
-        let judgement = match settings.eye_movement {
-            EyeMovement::Fixation => observer.judge(
-                &Clip { frames: &test, fps: settings.fps },
-                &Clip { frames: &reference, fps: sub_fps },
-                eyes,
-            ),
-            EyeMovement::Pursuit => {
-                use perceptual::pursuit::{retinal_clip, retinal_image};
-                let gaze = pursuit_gaze(design, preset, id, settings)?;
-                let test = retinal_clip(&test, settings.sub_frames, eyes, &gaze)
-                    .with_context(|| format!("{id}: following the sphere"))?;
-                let reference = reference
-                    .iter()
-                    .zip(&gaze)
-                    .map(|(f, g)| retinal_image(f, eyes, g))
-                    .collect::<Result<Vec<_>, _>>()
-                    .with_context(|| format!("{id}: following the sphere in the reference"))?;
-                observer.judge(&Clip { frames: &test, fps: sub_fps }, &Clip { frames: &reference, fps: sub_fps }, eyes)
-            }
-        }
-        .with_context(|| format!("judging {id}"))?;
+        let judgement = observer
+            .judge(&Clip { frames: &test, fps: test_fps }, &Clip { frames: &reference, fps: sub_fps }, eyes)
+            .with_context(|| format!("judging {id}"))?;
         cache.insert(set, id.to_string(), judgement.eyes)?;
         cache.save(&cache_path)?;
         progress.inc(1);
@@ -616,14 +644,7 @@ pub fn pair_qualities(
     let mut cache = ScoreCache::open(&cache_path, set, settings)?;
     let todo: Vec<&(StimulusId, StimulusId)> =
         pairs.iter().filter(|(r, t)| cache.get(set, &pair_key(r, t)).is_none()).collect();
-    let progress = if todo.is_empty() {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new(todo.len() as u64).with_style(
-            indicatif::ProgressStyle::with_template("observer {bar:40} {pos}/{len} pairs ({msg}) {elapsed} ETA {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        )
-    };
+    let progress = progress_bar(todo.len(), "pairs");
     let observer = VideoObserver::new(settings.display(), Threads::Pool).map_err(|e| BadInput(e.to_string()))?;
     // Each sequence's clip as the metric sees it, loaded once: the frames (held and followed
     // under pursuit), their rate and the eyes side by side.
@@ -635,16 +656,9 @@ pub fn pair_qualities(
                 continue;
             }
             let (clip, eyes) = load_clip(set, id, settings)?;
-            let seen = match settings.eye_movement {
-                EyeMovement::Fixation => (clip, settings.fps),
-                EyeMovement::Pursuit => {
-                    let gaze = pursuit_gaze(design, preset, id, settings)?;
-                    let held = perceptual::pursuit::retinal_clip(&clip, settings.sub_frames, eyes, &gaze)
-                        .with_context(|| format!("{id}: following the sphere"))?;
-                    (held, settings.fps * f64::from(settings.sub_frames))
-                }
-            };
-            clips.insert(*id, (seen.0, seen.1, eyes));
+            let gaze = pursuit_gaze_if_pursuing(design, preset, id, settings)?;
+            let (seen, fps) = clip_as_seen(clip, eyes, id, settings, gaze.as_deref())?;
+            clips.insert(*id, (seen, fps, eyes));
         }
         let ((test, fps, eyes), (reference, ..)) = (&clips[t], &clips[r]);
         let judgement = observer
