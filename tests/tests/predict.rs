@@ -39,6 +39,13 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     // 1 sample per pixel is far noisier than 16 against any converged reference.
     assert!(score("A1") < score("A5") - 0.5, "A1 {} A5 {}", score("A1"), score("A5"));
     assert!(rows.iter().all(|r| r["score"].as_f64().unwrap() <= 10.0 + 1e-6));
+    // Each row names the rendering it judged: the manifest hash the set's index records.
+    let index: serde_json::Value = serde_json::from_slice(&std::fs::read(set.join("index.json")).unwrap()).unwrap();
+    for row in rows {
+        let entry = index["sequences"].as_array().unwrap().iter().find(|e| e["id"] == row["id"]).unwrap();
+        assert_eq!(row["manifest_sha256"], entry["manifest_sha256"], "{}", row["id"]);
+        assert_eq!(row["manifest_sha256"].as_str().unwrap().len(), 64);
+    }
     // The table's 20 judges: the expected votes total 20 judgements of each of 10 pairs.
     let total: f64 = rows.iter().map(|r| r["votes"].as_f64().unwrap()).sum();
     assert!((total - 200.0).abs() < 1e-6, "{total}");

@@ -179,6 +179,10 @@ pub struct ForecastRow {
     pub id: String,
     /// Label (the levels of the factors that vary).
     pub label: String,
+    /// The sha256 of the sequence's manifest as the set's index.json records it: which
+    /// rendering was judged, so that a forecast made again can be told apart from one made on
+    /// other frames.
+    pub manifest_sha256: String,
     /// ColorVideoVDP quality (JOD; mean of the eyes), or the FLIP distance.
     pub score: f64,
     /// Each eye's JOD (ColorVideoVDP; with one eye movement).
@@ -485,6 +489,13 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
         .map(|(i, id)| ForecastRow {
             id: id.to_string(),
             label: labels[i].clone(),
+            manifest_sha256: set
+                .index
+                .sequences
+                .iter()
+                .find(|e| e.id == *id)
+                .map(|e| e.manifest_sha256.clone())
+                .unwrap_or_default(),
             score: rows_score[i],
             eyes: eyes[i].clone(),
             by_eye_movement: by_movement[i].clone(),
