@@ -188,6 +188,11 @@ pub struct SetIndex {
 }
 
 impl SetIndex {
+    /// The SHA-256 of `id`'s manifest as the index records it, or `None` where the set lacks it.
+    pub fn manifest_sha256(&self, id: StimulusId) -> Option<&str> {
+        self.sequences.iter().find(|e| e.id == id).map(|e| e.manifest_sha256.as_str())
+    }
+
     /// The set's content hash: SHA-256 of the lines `ID MANIFEST_SHA256\n` of its entries in
     /// id order. Once each entry's manifest is checked against its hash (and each manifest's
     /// frames against theirs), it identifies every byte of the set, whatever the index's

@@ -489,13 +489,7 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
         .map(|(i, id)| ForecastRow {
             id: id.to_string(),
             label: labels[i].clone(),
-            manifest_sha256: set
-                .index
-                .sequences
-                .iter()
-                .find(|e| e.id == *id)
-                .map(|e| e.manifest_sha256.clone())
-                .unwrap_or_default(),
+            manifest_sha256: set.index.manifest_sha256(*id).unwrap_or_default().to_owned(),
             score: rows_score[i],
             eyes: eyes[i].clone(),
             by_eye_movement: by_movement[i].clone(),

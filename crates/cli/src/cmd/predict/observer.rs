@@ -260,7 +260,7 @@ fn key_manifests(set: &StimulusSet, key: &str) -> Option<Vec<String>> {
     key.split(" against ")
         .map(|id| {
             let id: StimulusId = id.parse().ok()?;
-            set.index.sequences.iter().find(|e| e.id == id).map(|e| e.manifest_sha256.clone())
+            set.index.manifest_sha256(id).map(str::to_owned)
         })
         .collect()
 }
