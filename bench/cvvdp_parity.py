@@ -15,6 +15,7 @@ prints both JODs per eye and the largest difference as JSON.
 """
 
 import glob
+import hashlib
 import json
 import os
 import sys
@@ -41,13 +42,17 @@ def main():
     first, end = s["clip"]
     sub = s["sub_frames"]
     kind = s["reference"]
-    if kind == "eye":
-        ref_folder = f"eye-{s['reference_spp']}spp-{sub}sub-f{first}-{end}"
+    if s.get("eye_movement", "fixation") != "fixation":
+        sys.exit(f"{cache_path}: eye movement {s['eye_movement']}: only a fixating eye's scores are checked here")
+    if kind in ("eye", "sharp"):
+        ref_folder = f"{kind}-{s['reference_spp']}spp-{sub}sub-f{first}-{end}"
     else:
         ref_folder = f"shutter-{s['reference_spp']}spp-f{first}-{end}"
     torch.set_num_threads(os.cpu_count())
     rows = []
-    for sid, eyes_rust in sorted(cache["scores"].items()):
+    for sid, entry in sorted(cache["scores"].items()):
+        # blurlab-observer-scores/1 holds each eye's JOD; /2 and /3 an object with them.
+        eyes_rust = entry["eyes"] if isinstance(entry, dict) else entry
         folder = os.path.join(set_dir, folders[sid])
         manifest = json.load(open(os.path.join(folder, "manifest.json")))
         frames = [read_rgb(os.path.join(folder, f["png"])) for f in manifest["frames"][first:end]]
@@ -56,6 +61,11 @@ def main():
         m, sp, t = parts[0][1:], parts[1][1:], parts[2][1:]
         key = f"M{m}-S{sp}" + (f"-T{t}" if kind == "shutter" else "") + ("-stereo" if stereo else "")
         ref_dir = os.path.join(set_dir, "observer", "reference", ref_folder, key)
+        stamp = os.path.join(ref_dir, "reference.json")
+        if isinstance(entry, dict) and "reference_sha256" in entry:
+            with open(stamp, "rb") as f:
+                if hashlib.sha256(f.read()).hexdigest() != entry["reference_sha256"]:
+                    sys.exit(f"{stamp}: not the reference {sid} was judged against; predict again first")
         reference = [
             read_rgb(os.path.join(ref_dir, f"frame-{f:04d}-{k:02d}.png")) for f in range(first, end) for k in range(sub)
         ]

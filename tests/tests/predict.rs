@@ -80,6 +80,64 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     assert_eq!(scores["scores"]["M3-S2-T3-A2"], kept);
     assert_eq!(std::fs::metadata(&reference_frame).unwrap().modified().unwrap(), before);
 
+    // The reference is stamped after its last frame with the design it was rendered from and
+    // each frame's hash, and every row names it by the stamp's hash.
+    let stamp_path = reference_frame.parent().unwrap().join("reference.json");
+    let stamp_bytes = std::fs::read(&stamp_path).unwrap();
+    let stamp: serde_json::Value = serde_json::from_slice(&stamp_bytes).unwrap();
+    assert_eq!((&stamp["design_sha256"], &stamp["preset"]), (&index["design_sha256"], &index["preset"]));
+    let stamped = stamp["frames"].as_array().unwrap();
+    assert_eq!(stamped.len(), 8 * 4, "the `eye` reference: 8 frames of 4 sub-frames");
+    for f in stamped {
+        let bytes = std::fs::read(reference_frame.with_file_name(f["png"].as_str().unwrap())).unwrap();
+        assert_eq!(f["png_sha256"], study::fsio::sha256_hex(&bytes), "{f}");
+    }
+    let stamp_sha = study::fsio::sha256_hex(&stamp_bytes);
+    assert!(rows.iter().all(|r| r["reference_sha256"] == stamp_sha.as_str()), "{rows:?}");
+    // A frame that no longer hashes as stamped is rendered again when a score needs it (the
+    // same bytes: its seeds are recorded), and the forecast stays the same.
+    let frame_bytes = std::fs::read(&reference_frame).unwrap();
+    std::fs::write(&reference_frame, b"not the frame").unwrap();
+    let mut scores: serde_json::Value = serde_json::from_slice(&std::fs::read(&cache).unwrap()).unwrap();
+    scores["scores"].as_object_mut().unwrap().remove("M3-S2-T3-A3");
+    std::fs::write(&cache, serde_json::to_vec(&scores).unwrap()).unwrap();
+    let mended = dir.path().join("mended");
+    let o = predict(&set, &mended, &["--votes", &table]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("frame-0000-00.png: does not hash as its reference's stamp records"), "{}", stderr(&o));
+    assert!(std::fs::read(&reference_frame).unwrap() == frame_bytes);
+    assert!(std::fs::read(&stamp_path).unwrap() == stamp_bytes);
+    assert_eq!(std::fs::read(out.join("votes.csv")).unwrap(), std::fs::read(mended.join("votes.csv")).unwrap());
+    let mended_at = std::fs::metadata(&reference_frame).unwrap().modified().unwrap();
+    // A reference stamped for another version of the design is rendered again whole, and
+    // every score judged against it is judged again.
+    let mut other = stamp.clone();
+    other["design_sha256"] = serde_json::Value::from("0".repeat(64));
+    std::fs::write(&stamp_path, serde_json::to_vec_pretty(&other).unwrap()).unwrap();
+    let o = predict(&set, &dir.path().join("redone"), &["--votes", &table]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("rendering the reference again"), "{}", stderr(&o));
+    assert!(std::fs::metadata(&reference_frame).unwrap().modified().unwrap() > mended_at);
+    assert!(std::fs::read(&stamp_path).unwrap() == stamp_bytes);
+    assert_eq!(
+        std::fs::read(out.join("votes.csv")).unwrap(),
+        std::fs::read(dir.path().join("redone/votes.csv")).unwrap()
+    );
+    // Frames without a stamp (rendered before references were stamped, when their seeds
+    // depended on which sequence asked first) are rendered again: here to the same bytes.
+    std::fs::remove_file(&stamp_path).unwrap();
+    let o = predict(&set, &dir.path().join("restamped"), &["--votes", &table]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("frames without a stamp"), "{}", stderr(&o));
+    assert!(
+        std::fs::read(&stamp_path).unwrap() == stamp_bytes && std::fs::read(&reference_frame).unwrap() == frame_bytes
+    );
+    std::fs::write(&stamp_path, b"{ not a stamp").unwrap();
+    let o = predict(&set, &dir.path().join("bad"), &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("reference.json: not a reference stamp"), "{}", stderr(&o));
+    std::fs::write(&stamp_path, &stamp_bytes).unwrap();
+
     // The other references and the FLIP baseline run on the same set, each reference in its
     // own folder (`sharp`: four instants per frame, as many frames as `eye`).
     for reference in ["shutter", "sharp"] {
@@ -92,7 +150,10 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
         .collect();
     assert_eq!(folders.len(), 3, "{folders:?}");
     let sharp = folders.iter().find(|f| f.starts_with("sharp-")).unwrap();
-    let frames = std::fs::read_dir(set.join("observer/reference").join(sharp).join("M3-S2")).unwrap().count();
+    let frames = std::fs::read_dir(set.join("observer/reference").join(sharp).join("M3-S2"))
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "png"))
+        .count();
     assert_eq!(frames, 8 * 4, "{sharp}");
     let o = predict(&set, &dir.path().join("flip"), &["--observer", "flip", "--votes", &table]);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -19,6 +19,7 @@
 //! agreement with a published table.
 
 pub mod observer;
+pub mod reference;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -183,6 +184,11 @@ pub struct ForecastRow {
     /// rendering was judged, so that a forecast made again can be told apart from one made on
     /// other frames.
     pub manifest_sha256: String,
+    /// The SHA-256 of the stamp (`reference.json`) of the rendered reference it was judged
+    /// against (ColorVideoVDP): which reference frames, as the manifest hash says which
+    /// sequence frames.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_sha256: Option<String>,
     /// ColorVideoVDP quality (JOD; mean of the eyes), or the FLIP distance.
     pub score: f64,
     /// Each eye's JOD (ColorVideoVDP; with one eye movement).
@@ -368,6 +374,8 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
     };
     let (set, design, preset) = open_set(&args.stimuli, definition, false)?;
     let mut by_movement = vec![Vec::new(); ids.len()];
+    // The stamp of each stimulus's rendered reference (the same under every eye movement).
+    let mut references: Vec<Option<String>> = vec![None; ids.len()];
     type Scores = (Vec<f64>, Vec<Vec<f64>>, ExpectedVotes, Option<ObserverSettings>, String, Vec<Vec<Vec<f64>>>);
     let (rows_score, eyes, expected, settings, score, pair_jod): Scores = match args.observer {
         ObserverArg::Cvvdp => {
@@ -386,8 +394,9 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
             for &m in movements {
                 let settings = base.clone().with_eye_movement(m);
                 let q = observer::qualities(&set, &design, &preset, &ids, &settings, args.device.into())?;
-                jods.push(ids.iter().map(|id| q[id].jod()).collect());
-                eyes = ids.iter().map(|id| q[id].eyes.clone()).collect();
+                jods.push(ids.iter().map(|id| q[id].judgement.jod()).collect());
+                eyes = ids.iter().map(|id| q[id].judgement.eyes.clone()).collect();
+                references = ids.iter().map(|id| Some(q[id].reference_sha256.clone())).collect();
             }
             let shares = movements.len() as f64;
             let jod: Vec<f64> = (0..ids.len()).map(|i| jods.iter().map(|q| q[i]).sum::<f64>() / shares).collect();
@@ -490,6 +499,7 @@ pub fn forecast(definition: &ExperimentDefinition, args: &Args) -> anyhow::Resul
             id: id.to_string(),
             label: labels[i].clone(),
             manifest_sha256: set.index.manifest_sha256(*id).unwrap_or_default().to_owned(),
+            reference_sha256: references[i].clone(),
             score: rows_score[i],
             eyes: eyes[i].clone(),
             by_eye_movement: by_movement[i].clone(),
@@ -718,7 +728,7 @@ pub fn qualities_for(
     judged.briefing.examples.clear();
     let ids: Vec<StimulusId> = judged.all_stimuli().into_iter().collect();
     let q = observer::qualities(&set, &design, &preset, &ids, &settings, device)?;
-    Ok((q.into_iter().map(|(id, j)| (id, j.jod())).collect(), settings))
+    Ok((q.into_iter().map(|(id, q)| (id, q.judgement.jod())).collect(), settings))
 }
 
 #[cfg(test)]

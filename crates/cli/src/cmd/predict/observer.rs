@@ -20,8 +20,9 @@
 //!   observer").
 //!
 //! Reference frames are rendered with the set's design and preset, at `reference_spp`
-//! samples per pixel, with seeds drawn apart from the stimuli's (no noise shared with a test
-//! sequence).
+//! samples per pixel, and stamped with what they were rendered from ([`super::reference`]); a
+//! cached score holds only while the manifests of the sequences and the stamp of the reference
+//! it was judged from are the present ones.
 //!
 //! Eye movements ([`EyeMovement`]): the metric sees the screen as a fixating eye does, unless
 //! the observer pursues the sphere: then every sub-frame of the test (held) and of the
@@ -38,20 +39,22 @@ use perceptual::SrgbImage;
 use perceptual::cvvdp::{Clip, DisplayConditions, Judgement, Threads, VideoObserver};
 use runner::stimuli::StimulusSet;
 use serde::{Deserialize, Serialize};
+use study::StimulusId;
 use study::design::{Design, Preset};
-use study::scene::{FrameScene, Shutter};
-use study::{StimulusId, View};
+use study::scene::FrameScene;
 
+use super::reference::References;
 use crate::cmd::BadInput;
-
-/// Stream constant of the references' sample seeds.
-const REFERENCE_STREAM: u64 = 0x5EF3_2E9C;
 
 /// Sub-frames per displayed frame of the `eye` reference unless asked otherwise.
 pub const DEFAULT_SUB_FRAMES: u32 = 4;
 
 /// Format tag of the score cache.
-const SCORES_FORMAT: &str = "blurlab-observer-scores/2";
+const SCORES_FORMAT: &str = "blurlab-observer-scores/3";
+
+/// Format tag of the score cache before references were stamped: its scores name no
+/// reference, so only its pairs' (judged against each other) still hold.
+const UNSTAMPED_SCORES_FORMAT: &str = "blurlab-observer-scores/2";
 
 /// What each sequence is compared with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
@@ -176,7 +179,7 @@ impl ObserverSettings {
 
     /// Where `scene`'s frame interval starts and how long each of its sub-frames lasts (one
     /// sub-frame per frame for `shutter`).
-    fn sub_frame_timing(&self, design: &Design, scene: &FrameScene) -> (f64, f64) {
+    pub(super) fn sub_frame_timing(&self, design: &Design, scene: &FrameScene) -> (f64, f64) {
         let fps = design.spec.sequence.fps;
         let start = scene.frame_time - design.spec.sequence.frame_time_offset / fps;
         (start, 1.0 / (fps * f64::from(self.sub_frames)))
@@ -199,7 +202,7 @@ impl ObserverSettings {
     }
 
     /// The reference folder's name: kind, samples, sub-frames and clip.
-    fn reference_folder(&self) -> String {
+    pub(super) fn reference_folder(&self) -> String {
         match self.reference {
             ReferenceKind::Shutter => format!("shutter-{}spp-f{}-{}", self.reference_spp, self.clip.0, self.clip.1),
             ReferenceKind::Eye | ReferenceKind::Sharp => format!(
@@ -221,8 +224,9 @@ impl ObserverSettings {
 }
 
 /// The cached qualities of one set under one setting, each stamped with the manifests of the
-/// sequences it was judged from, so that rendering more sequences into the set (or
-/// re-rendering some) keeps every other score.
+/// sequences it was judged from and the stamp of its rendered reference, so that rendering
+/// more sequences into the set (or re-rendering some) keeps every other score, and a reference
+/// rendered again drops the scores judged against the old one.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 struct ScoreCache {
     format: String,
@@ -238,8 +242,42 @@ struct CachedScore {
     /// SHA-256 of the manifest of each sequence judged (the test first, then a pair's
     /// reference), as the set's index records them.
     manifests: Vec<String>,
+    /// SHA-256 of the stamp of the rendered reference it was judged against (none for a pair,
+    /// judged against another sequence, or for a score cached before references were stamped).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    reference_sha256: Option<String>,
     /// Each eye's JOD.
     eyes: Vec<f64>,
+}
+
+/// What a score was judged against, besides the sequences its key names.
+#[derive(Clone, Copy, Debug)]
+enum Against<'a> {
+    /// Another sequence of the set (a pair): nothing rendered.
+    Sequence,
+    /// A finished rendered reference.
+    /// A finished rendered reference: its stamp's SHA-256.
+    Rendered(&'a str),
+    /// A rendered reference still to render (or to render again): no score holds.
+    Unfinished,
+}
+
+impl<'a> Against<'a> {
+    /// A rendered reference: finished with `identity`, or not.
+    fn reference(identity: &'a Option<String>) -> Against<'a> {
+        identity.as_deref().map_or(Against::Unfinished, Against::Rendered)
+    }
+}
+
+impl CachedScore {
+    /// Whether this score was judged against `against`.
+    fn judged_against(&self, against: Against) -> bool {
+        match (against, &self.reference_sha256) {
+            (Against::Sequence, None) => true,
+            (Against::Rendered(r), Some(sha)) => sha == r,
+            _ => false,
+        }
+    }
 }
 
 /// The score cache of earlier versions, keyed by the whole set's content hash.
@@ -288,14 +326,14 @@ impl ScoreCache {
             {
                 for (key, eyes) in old.scores {
                     if let Some(manifests) = key_manifests(set, &key) {
-                        cache.scores.insert(key, CachedScore { manifests, eyes });
+                        cache.scores.insert(key, CachedScore { manifests, reference_sha256: None, eyes });
                     }
                 }
             }
             return Ok(cache);
         }
         let stored: ScoreCache = serde_json::from_slice(&bytes).with_context(not_a_cache)?;
-        if stored.format == SCORES_FORMAT && stored.settings == *settings {
+        if [SCORES_FORMAT, UNSTAMPED_SCORES_FORMAT].contains(&stored.format.as_str()) && stored.settings == *settings {
             cache.scores = stored
                 .scores
                 .into_iter()
@@ -305,17 +343,25 @@ impl ScoreCache {
         Ok(cache)
     }
 
-    /// The cached JOD of each eye under `key`, if it was judged from `set`'s present sequences.
-    fn get(&self, set: &StimulusSet, key: &str) -> Option<&Vec<f64>> {
+    /// The cached JOD of each eye under `key`, if it was judged from `set`'s present sequences
+    /// against `against`.
+    fn get(&self, set: &StimulusSet, key: &str, against: Against) -> Option<&Vec<f64>> {
         let score = self.scores.get(key)?;
-        (key_manifests(set, key).as_ref() == Some(&score.manifests)).then_some(&score.eyes)
+        (key_manifests(set, key).as_ref() == Some(&score.manifests) && score.judged_against(against))
+            .then_some(&score.eyes)
     }
 
-    /// Records the JOD of each eye under `key`, judged from `set`'s present sequences.
-    fn insert(&mut self, set: &StimulusSet, key: String, eyes: Vec<f64>) -> anyhow::Result<()> {
+    /// Records the JOD of each eye under `key`, judged from `set`'s present sequences against
+    /// `against` (a finished reference or another sequence).
+    fn insert(&mut self, set: &StimulusSet, key: String, against: Against, eyes: Vec<f64>) -> anyhow::Result<()> {
         let manifests = key_manifests(set, &key)
             .ok_or_else(|| anyhow::anyhow!("{key}: not a sequence (or pair of sequences) of {}", set.dir.display()))?;
-        self.scores.insert(key, CachedScore { manifests, eyes });
+        let reference_sha256 = match against {
+            Against::Sequence => None,
+            Against::Rendered(r) => Some(r.to_owned()),
+            Against::Unfinished => anyhow::bail!("{key}: judged against a reference that is not finished"),
+        };
+        self.scores.insert(key, CachedScore { manifests, reference_sha256, eyes });
         Ok(())
     }
 
@@ -343,44 +389,6 @@ impl ScoreCache {
 /// Where the observer keeps its work in a set.
 pub fn observer_dir(set: &Path) -> PathBuf {
     set.join("observer")
-}
-
-/// The folder name of a reference: material, speed (and shutter for `shutter`), view.
-fn reference_key(id: &StimulusId, kind: ReferenceKind) -> String {
-    let view = if id.view == View::Stereo { "-stereo" } else { "" };
-    match kind {
-        ReferenceKind::Shutter => format!("M{}-S{}-T{}{view}", id.material, id.speed, id.shutter),
-        ReferenceKind::Eye | ReferenceKind::Sharp => format!("M{}-S{}{view}", id.material, id.speed),
-    }
-}
-
-/// The scene of sub-frame `sub` of frame `frame` of `id`'s reference.
-fn reference_scene(
-    design: &Design,
-    preset: &Preset,
-    id: &StimulusId,
-    frame: u32,
-    sub: u32,
-    settings: &ObserverSettings,
-) -> anyhow::Result<FrameScene> {
-    let mut scene = design.frame_scene_with(preset, id, frame).map_err(|e| BadInput(e.to_string()))?;
-    scene.samples_per_pixel = settings.reference_spp;
-    scene.antialias = None;
-    let (start, step) = settings.sub_frame_timing(design, &scene);
-    match settings.reference {
-        ReferenceKind::Shutter => {}
-        ReferenceKind::Eye => {
-            scene.shutter = Shutter { open: start + f64::from(sub) * step, close: start + f64::from(sub + 1) * step };
-        }
-        ReferenceKind::Sharp => {
-            let instant = start + (f64::from(sub) + 0.5) * step;
-            scene.shutter = Shutter { open: instant, close: instant };
-        }
-    }
-    for view in &mut scene.views {
-        view.seed = study::seed::mix(view.seed, &[REFERENCE_STREAM, u64::from(sub)]);
-    }
-    Ok(scene)
 }
 
 /// Where each eye looks at each sub-frame of `id`'s clip when it follows the sphere: the
@@ -414,101 +422,6 @@ fn pursuit_gaze(
         }
     }
     Ok(out)
-}
-
-/// Renders (or finds) every frame of the references `ids` need; returns nothing, the frames
-/// are in `SET/observer/reference/FOLDER/KEY/`.
-pub struct References<'a> {
-    set_dir: &'a Path,
-    design: &'a Design,
-    preset: &'a Preset,
-    settings: &'a ObserverSettings,
-    device: render::DeviceChoice,
-}
-
-impl<'a> References<'a> {
-    /// The references of `settings` for the set in `set_dir`.
-    pub fn new(
-        set_dir: &'a Path,
-        design: &'a Design,
-        preset: &'a Preset,
-        settings: &'a ObserverSettings,
-        device: render::DeviceChoice,
-    ) -> References<'a> {
-        References { set_dir, design, preset, settings, device }
-    }
-
-    fn folder(&self, id: &StimulusId) -> PathBuf {
-        observer_dir(self.set_dir)
-            .join("reference")
-            .join(self.settings.reference_folder())
-            .join(reference_key(id, self.settings.reference))
-    }
-
-    fn frame_path(&self, id: &StimulusId, frame: u32, sub: u32) -> PathBuf {
-        self.folder(id).join(format!("frame-{frame:04}-{sub:02}.png"))
-    }
-
-    /// The frames (frame, sub-frame) of `id`'s reference in display order.
-    fn frames(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
-        (self.settings.clip.0..self.settings.clip.1).flat_map(|f| (0..self.settings.sub_frames).map(move |s| (f, s)))
-    }
-
-    /// How many reference frames of `ids` are still to render.
-    pub fn missing(&self, ids: &[StimulusId]) -> usize {
-        let mut n = 0;
-        let mut seen = std::collections::BTreeSet::new();
-        for id in ids {
-            if seen.insert(reference_key(id, self.settings.reference)) {
-                n += self.frames().filter(|&(f, s)| !self.frame_path(id, f, s).exists()).count();
-            }
-        }
-        n
-    }
-
-    /// Renders the missing frames of `id`'s reference (each written atomically, so an
-    /// interrupted render resumes at the first missing frame) and returns them all.
-    pub fn load_or_render<'e>(
-        &self,
-        id: &StimulusId,
-        renderer: &mut Option<render::Renderer<'e>>,
-        env: Option<&'e render::env::EnvironmentMap>,
-        progress: &indicatif::ProgressBar,
-    ) -> anyhow::Result<Vec<SrgbImage>> {
-        let eyes = if id.view == View::Stereo { 2 } else { 1 };
-        let (w, h) = (self.preset.width * eyes, self.preset.height);
-        let folder = self.folder(id);
-        std::fs::create_dir_all(&folder).with_context(|| format!("{}: cannot create", folder.display()))?;
-        let method = self.design.method_with(id, Some(study::Method::Tracer)).map_err(|e| BadInput(e.to_string()))?;
-        let mut out = Vec::new();
-        for (frame, sub) in self.frames().collect::<Vec<_>>() {
-            let path = self.frame_path(id, frame, sub);
-            if !path.exists() {
-                let r = match renderer {
-                    Some(r) => r,
-                    None => {
-                        let env = env.ok_or_else(|| {
-                            anyhow::anyhow!(
-                                "{}: a reference frame went missing while the prediction ran",
-                                path.display()
-                            )
-                        })?;
-                        renderer.insert(render::Renderer::open(self.device, env)?)
-                    }
-                };
-                let scene = reference_scene(self.design, self.preset, id, frame, sub, self.settings)?;
-                let rendered = r.render(&method, &scene)?;
-                let rgb = render::io::to_srgb8(&rendered.image, &scene.exposure);
-                let png = render::io::encode_png_rgb8(rendered.image.width, rendered.image.height, &rgb);
-                study::fsio::write_atomic(&path, &png).with_context(|| format!("{}: cannot write", path.display()))?;
-                progress.inc(1);
-                out.push(SrgbImage::new(w, h, rgb).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?);
-            } else {
-                out.push(runner::flip_observer::read_srgb(&path, w, h)?);
-            }
-        }
-        Ok(out)
-    }
 }
 
 /// Frames `settings.clip` of `id`'s sequence in the set, and the eyes side by side in them.
@@ -570,6 +483,15 @@ fn progress_bar(len: usize, what: &str) -> indicatif::ProgressBar {
     )
 }
 
+/// A sequence's quality and the reference it was judged against.
+#[derive(Clone, Debug)]
+pub struct Quality {
+    /// Each eye's JOD.
+    pub judgement: Judgement,
+    /// SHA-256 of the reference's stamp ([`super::reference`]).
+    pub reference_sha256: String,
+}
+
 /// Each stimulus's quality (each eye's JOD) under `settings`, from the cache where it holds
 /// them, else judged (references rendered as needed) and cached one by one.
 pub fn qualities(
@@ -579,48 +501,95 @@ pub fn qualities(
     ids: &[StimulusId],
     settings: &ObserverSettings,
     device: render::DeviceChoice,
-) -> anyhow::Result<BTreeMap<StimulusId, Judgement>> {
+) -> anyhow::Result<BTreeMap<StimulusId, Quality>> {
     let cache_path = observer_dir(&set.dir).join(format!("scores-{}.json", settings.key()?));
     let mut cache = ScoreCache::open(&cache_path, set, settings)?;
-    let todo: Vec<StimulusId> = ids.iter().filter(|id| cache.get(set, &id.to_string()).is_none()).copied().collect();
     let references = References::new(&set.dir, design, preset, settings, device);
-    let to_render = references.missing(&todo);
+    let found: BTreeMap<StimulusId, Option<String>> =
+        ids.iter().map(|id| Ok((*id, references.identity(id)?))).collect::<anyhow::Result<_>>()?;
+    let todo: Vec<StimulusId> = ids
+        .iter()
+        .filter(|id| cache.get(set, &id.to_string(), Against::reference(&found[*id])).is_none())
+        .copied()
+        .collect();
+    let to_render = references.missing(&todo)?;
     let progress = progress_bar(to_render + todo.len(), "reference frames and sequences");
     let observer = VideoObserver::new(settings.display(), Threads::Pool).map_err(|e| BadInput(e.to_string()))?;
-    let env = if to_render > 0 {
-        Some(render::env::EnvironmentMap::from_lighting(&design.lighting).map_err(|e| BadInput(e.to_string()))?)
-    } else {
-        None
-    };
+    // The environment map, made when the first reference frame is rendered.
+    let env = std::cell::OnceCell::new();
     let mut renderer = None;
-    for id in &todo {
-        progress.set_message(id.to_string());
-        let (test, eyes) = load_clip(set, id, settings)?;
-        let reference = references.load_or_render(id, &mut renderer, env.as_ref(), &progress)?;
-        let gaze = pursuit_gaze_if_pursuing(design, preset, id, settings)?;
-        let (test, test_fps) = clip_as_seen(test, eyes, id, settings, gaze.as_deref())?;
-        let reference = match &gaze {
-            None => reference,
-            Some(gaze) => reference
+    // Each reference the sequences still to judge need is loaded (rendered, checked, mended)
+    // once, before any sequence is judged against it: a reference that changes on the way
+    // (a frame rendered again) drops the scores judged against the old one, and those
+    // sequences are judged again.
+    let mut judged_against: BTreeMap<StimulusId, String> = BTreeMap::new();
+    let mut loaded = std::collections::BTreeSet::new();
+    for first in &todo {
+        if !loaded.insert(references.key(first)) {
+            continue;
+        }
+        progress.set_message(first.to_string());
+        let (reference, identity) = references.load_or_render(first, &mut renderer, &env, &progress)?;
+        for id in ids.iter().filter(|id| references.key(id) == references.key(first)) {
+            if cache.get(set, &id.to_string(), Against::Rendered(&identity)).is_none() {
+                if !todo.contains(id) {
+                    progress.inc_length(1);
+                }
+                progress.set_message(id.to_string());
+                let judgement = judge_against_reference(&observer, set, design, preset, id, settings, &reference)?;
+                cache.insert(set, id.to_string(), Against::Rendered(&identity), judgement.eyes)?;
+                cache.save(&cache_path)?;
+                progress.inc(1);
+            }
+            judged_against.insert(*id, identity.clone());
+        }
+    }
+    progress.finish_and_clear();
+    let mut out = BTreeMap::new();
+    for (id, found) in found {
+        let identity = judged_against
+            .remove(&id)
+            .or(found)
+            .ok_or_else(|| anyhow::anyhow!("{id}: its reference was not rendered"))?;
+        let eyes = cache
+            .get(set, &id.to_string(), Against::Rendered(&identity))
+            .ok_or_else(|| anyhow::anyhow!("{id}: no score judged against its reference"))?;
+        out.insert(id, Quality { judgement: Judgement { eyes: eyes.clone() }, reference_sha256: identity });
+    }
+    Ok(out)
+}
+
+/// `id`'s clip judged against the frames of its rendered `reference` (both followed by a
+/// pursuing eye).
+fn judge_against_reference(
+    observer: &VideoObserver,
+    set: &StimulusSet,
+    design: &Design,
+    preset: &Preset,
+    id: &StimulusId,
+    settings: &ObserverSettings,
+    reference: &[SrgbImage],
+) -> anyhow::Result<Judgement> {
+    let (test, eyes) = load_clip(set, id, settings)?;
+    let gaze = pursuit_gaze_if_pursuing(design, preset, id, settings)?;
+    let (test, test_fps) = clip_as_seen(test, eyes, id, settings, gaze.as_deref())?;
+    let followed;
+    let reference = match &gaze {
+        None => reference,
+        Some(gaze) => {
+            followed = reference
                 .iter()
                 .zip(gaze)
                 .map(|(f, g)| perceptual::pursuit::retinal_image(f, eyes, g))
                 .collect::<Result<Vec<_>, _>>()
-                .with_context(|| format!("{id}: following the sphere in the reference"))?,
-        };
-        let sub_fps = settings.fps * f64::from(settings.sub_frames);
-        let judgement = observer
-            .judge(&Clip { frames: &test, fps: test_fps }, &Clip { frames: &reference, fps: sub_fps }, eyes)
-            .with_context(|| format!("judging {id}"))?;
-        cache.insert(set, id.to_string(), judgement.eyes)?;
-        cache.save(&cache_path)?;
-        progress.inc(1);
-    }
-    progress.finish_and_clear();
-    Ok(ids
-        .iter()
-        .filter_map(|id| cache.get(set, &id.to_string()).map(|eyes| (*id, Judgement { eyes: eyes.clone() })))
-        .collect())
+                .with_context(|| format!("{id}: following the sphere in the reference"))?;
+            &followed[..]
+        }
+    };
+    let sub_fps = settings.fps * f64::from(settings.sub_frames);
+    observer
+        .judge(&Clip { frames: &test, fps: test_fps }, &Clip { frames: reference, fps: sub_fps }, eyes)
+        .with_context(|| format!("judging {id}"))
 }
 
 /// The key of a pair in a pair cache.
@@ -643,7 +612,7 @@ pub fn pair_qualities(
     let cache_path = observer_dir(&set.dir).join(format!("pairs-{}.json", settings.key()?));
     let mut cache = ScoreCache::open(&cache_path, set, settings)?;
     let todo: Vec<&(StimulusId, StimulusId)> =
-        pairs.iter().filter(|(r, t)| cache.get(set, &pair_key(r, t)).is_none()).collect();
+        pairs.iter().filter(|(r, t)| cache.get(set, &pair_key(r, t), Against::Sequence).is_none()).collect();
     let progress = progress_bar(todo.len(), "pairs");
     let observer = VideoObserver::new(settings.display(), Threads::Pool).map_err(|e| BadInput(e.to_string()))?;
     // Each sequence's clip as the metric sees it, loaded once: the frames (held and followed
@@ -664,14 +633,16 @@ pub fn pair_qualities(
         let judgement = observer
             .judge(&Clip { frames: test, fps: *fps }, &Clip { frames: reference, fps: *fps }, *eyes)
             .with_context(|| format!("judging {t} against {r}"))?;
-        cache.insert(set, pair_key(r, t), judgement.eyes)?;
+        cache.insert(set, pair_key(r, t), Against::Sequence, judgement.eyes)?;
         cache.save(&cache_path)?;
         progress.inc(1);
     }
     progress.finish_and_clear();
     Ok(pairs
         .iter()
-        .filter_map(|(r, t)| cache.get(set, &pair_key(r, t)).map(|eyes| ((*r, *t), Judgement { eyes: eyes.clone() })))
+        .filter_map(|(r, t)| {
+            cache.get(set, &pair_key(r, t), Against::Sequence).map(|eyes| ((*r, *t), Judgement { eyes: eyes.clone() }))
+        })
         .collect())
 }
 
@@ -689,66 +660,9 @@ pub fn distances(
 
 #[cfg(test)]
 mod tests {
+    use super::super::reference::reference_scene;
+    use super::super::reference::tests::{settings, shipped};
     use super::*;
-
-    fn shipped() -> (Design, Preset) {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stimuli/navarro2011.toml");
-        let design = Design::load(&path).expect("the shipped design loads");
-        let preset = design.preset("clip").expect("the design has a clip preset");
-        (design, preset)
-    }
-
-    fn settings(design: &Design, preset: &Preset, kind: ReferenceKind) -> ObserverSettings {
-        ObserverSettings::new(design, preset, kind, Some(64), 4, Some((15, 17))).expect("valid settings")
-    }
-
-    #[test]
-    fn each_reference_sees_the_frame_interval_as_its_definition_says() {
-        let (design, preset) = shipped();
-        let id: StimulusId = "M2-S2-T5-A3".parse().expect("an id");
-        let fps = design.spec.sequence.fps;
-        let stimulus = design.frame_scene_with(&preset, &id, 16).expect("the stimulus's scene");
-        let start = stimulus.frame_time - design.spec.sequence.frame_time_offset / fps;
-        let sub = 1.0 / (4.0 * fps);
-
-        let shutter = settings(&design, &preset, ReferenceKind::Shutter);
-        assert_eq!(shutter.sub_frames, 1);
-        let s = reference_scene(&design, &preset, &id, 16, 0, &shutter).expect("scene");
-        assert_eq!((s.shutter, s.samples_per_pixel), (stimulus.shutter, 64));
-
-        // `eye`: four sub-frames tiling the frame interval, each open for its quarter.
-        let eye = settings(&design, &preset, ReferenceKind::Eye);
-        let mut edge = start;
-        for k in 0..4 {
-            let s = reference_scene(&design, &preset, &id, 16, k, &eye).expect("scene");
-            assert!((s.shutter.open - edge).abs() < 1e-12 && (s.shutter.close - edge - sub).abs() < 1e-12);
-            edge = s.shutter.close;
-        }
-        assert!((edge - start - 1.0 / fps).abs() < 1e-12);
-
-        // `sharp`: the same sub-frames closed to the instant at each one's middle.
-        let sharp = settings(&design, &preset, ReferenceKind::Sharp);
-        assert_eq!(sharp.sub_frames, 4);
-        for k in 0..4 {
-            let s = reference_scene(&design, &preset, &id, 16, k, &sharp).expect("scene");
-            let e = reference_scene(&design, &preset, &id, 16, k, &eye).expect("scene");
-            assert!(!s.shutter.is_open_interval(), "sub-frame {k}: {:?}", s.shutter);
-            assert!((s.shutter.open - 0.5 * (e.shutter.open + e.shutter.close)).abs() < 1e-12);
-            // The seeds differ from the stimulus's and between sub-frames.
-            assert_ne!(s.views[0].seed, stimulus.views[0].seed);
-        }
-        let seeds: std::collections::BTreeSet<u64> = (0..4)
-            .map(|k| reference_scene(&design, &preset, &id, 16, k, &sharp).expect("scene").views[0].seed)
-            .collect();
-        assert_eq!(seeds.len(), 4);
-
-        // Each kind keeps its frames apart from the others'.
-        let folders: std::collections::BTreeSet<String> =
-            [&shutter, &eye, &sharp].iter().map(|s| s.reference_folder()).collect();
-        assert_eq!(folders.len(), 3);
-        assert_eq!(reference_key(&id, ReferenceKind::Sharp), "M2-S2");
-        assert_eq!(reference_key(&id, ReferenceKind::Shutter), "M2-S2-T5");
-    }
 
     /// A set of the sequences `(id, manifest sha256)` as its index lists them (no files).
     fn indexed_set(entries: &[(&str, &str)]) -> StimulusSet {
@@ -785,12 +699,14 @@ mod tests {
         let (a, b, c) = ("M1-S1-T1-A1", "M1-S1-T1-A2", "M1-S1-T1-A3");
         let pair = format!("{a} against {b}");
         let set = indexed_set(&[(a, "a"), (b, "b")]);
+        let (rendered, itself) = (Against::Rendered("r1"), Against::Sequence);
+        let against = |key: &str| if key.contains(" against ") { itself } else { rendered };
         let open = |set: &StimulusSet| ScoreCache::open(&path, set, &settings).expect("opened");
         let with = |set: &StimulusSet, scores: &[(&str, f64)]| {
             let mut cache = open(set);
             cache.scores.clear();
             for (key, q) in scores {
-                cache.insert(set, (*key).to_owned(), vec![*q]).expect("a key of the set");
+                cache.insert(set, (*key).to_owned(), against(key), vec![*q]).expect("a key of the set");
             }
             cache
         };
@@ -799,12 +715,20 @@ mod tests {
         with(&set, &[(a, 9.0)]).save(&path).expect("saved");
         with(&set, &[(b, 8.0), (pair.as_str(), 7.5)]).save(&path).expect("saved");
         let cache = open(&set);
-        assert_eq!((cache.get(&set, a), cache.get(&set, b)), (Some(&vec![9.0]), Some(&vec![8.0])));
-        assert_eq!(cache.get(&set, &pair), Some(&vec![7.5]));
+        assert_eq!((cache.get(&set, a, rendered), cache.get(&set, b, rendered)), (Some(&vec![9.0]), Some(&vec![8.0])));
+        assert_eq!(cache.get(&set, &pair, itself), Some(&vec![7.5]));
         assert_eq!(cache.scores[&pair].manifests, ["a", "b"]);
         // A score of its own wins.
         with(&set, &[(a, 7.0)]).save(&path).expect("saved");
-        assert_eq!(open(&set).get(&set, a), Some(&vec![7.0]));
+        assert_eq!(open(&set).get(&set, a, rendered), Some(&vec![7.0]));
+
+        // A score holds for the reference it was judged against only: not for one rendered
+        // again (another stamp), nor for one still to render.
+        let cache = open(&set);
+        assert_eq!(cache.get(&set, a, Against::Rendered("r2")), None);
+        assert_eq!((cache.get(&set, a, Against::Unfinished), cache.get(&set, a, itself)), (None, None));
+        assert_eq!(cache.get(&set, &pair, rendered), None);
+        assert!(open(&set).insert(&set, a.to_owned(), Against::Unfinished, vec![1.0]).is_err());
 
         // A new sequence rendered into the set keeps every score; a re-rendered one drops its
         // own and its pairs', and nothing else.
@@ -817,14 +741,29 @@ mod tests {
         assert_eq!(cache.scores.keys().collect::<Vec<_>>(), [a]);
         // An entry that does not match is never handed out, whatever the file says.
         let stale = open(&set);
-        assert_eq!(stale.get(&rerendered, b), None);
-        assert!(open(&set).insert(&set, c.to_owned(), vec![1.0]).is_err(), "{c} is not in the first set");
+        assert_eq!(stale.get(&rerendered, b, rendered), None);
+        assert!(open(&set).insert(&set, c.to_owned(), rendered, vec![1.0]).is_err(), "{c} is not in the first set");
 
         // Another setting's scores under the same name are not taken in.
         let other = ObserverSettings { reference_spp: 65, ..settings.clone() };
         assert!(ScoreCache::open(&path, &set, &other).expect("opened").scores.is_empty());
 
-        // The earlier whole-set cache is taken in for the set it was computed from only.
+        // A cache from before references were stamped names none of them: its pairs hold,
+        // its scores against a rendered reference do not.
+        let unstamped = serde_json::json!({
+            "format": UNSTAMPED_SCORES_FORMAT,
+            "settings": settings,
+            "scores": {
+                a: { "manifests": ["a"], "eyes": [6.5] },
+                pair.as_str(): { "manifests": ["a", "b"], "eyes": [6.4] },
+            },
+        });
+        std::fs::write(&path, serde_json::to_vec(&unstamped).expect("json")).expect("written");
+        let cache = open(&set);
+        assert_eq!((cache.get(&set, a, rendered), cache.get(&set, &pair, itself)), (None, Some(&vec![6.4])));
+
+        // The earlier whole-set cache is taken in for the set it was computed from only (its
+        // pairs, for the same reason).
         let whole_set = |sha: &str| {
             let json = serde_json::json!({
                 "format": WHOLE_SET_SCORES_FORMAT,
@@ -836,7 +775,7 @@ mod tests {
         };
         whole_set(&set.sha256);
         let cache = open(&set);
-        assert_eq!((cache.get(&set, a), cache.get(&set, &pair)), (Some(&vec![6.0]), Some(&vec![5.0])));
+        assert_eq!((cache.get(&set, a, rendered), cache.get(&set, &pair, itself)), (None, Some(&vec![5.0])));
         whole_set(&grown.sha256);
         assert!(open(&set).scores.is_empty());
         std::fs::write(&path, b"{ not json").expect("written");
