@@ -112,7 +112,8 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     // A reference stamped for another version of the design is rendered again whole, and
     // every score judged against it is judged again.
     let mut other = stamp.clone();
-    other["design_sha256"] = serde_json::Value::from("0".repeat(64));
+    // (Not even a hash: a message quoting it must not split a character.)
+    other["design_sha256"] = serde_json::Value::from(format!("x{}", "é".repeat(40)));
     std::fs::write(&stamp_path, serde_json::to_vec_pretty(&other).unwrap()).unwrap();
     let o = predict(&set, &dir.path().join("redone"), &["--votes", &table]);
     assert!(o.status.success(), "{}", stderr(&o));

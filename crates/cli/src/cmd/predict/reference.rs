@@ -67,6 +67,11 @@ struct StampedFrame {
     png_sha256: String,
 }
 
+/// The first 12 characters of a hash, for messages (whatever a stamp file holds).
+fn short(hash: &str) -> String {
+    hash.chars().take(12).collect()
+}
+
 /// The folder name of a reference: material, speed (and shutter for `shutter`), view.
 pub(super) fn reference_key(id: &StimulusId, kind: ReferenceKind) -> String {
     let view = if id.view == View::Stereo { "-stereo" } else { "" };
@@ -273,11 +278,11 @@ impl<'a> References<'a> {
                 let why = format!(
                     "rendered for design `{}` ({}) with preset `{}`, settings `{}`; this set is design `{}` ({}) with preset `{}`",
                     stale.design,
-                    &stale.design_sha256[..stale.design_sha256.len().min(12)],
+                    short(&stale.design_sha256),
                     stale.preset,
                     stale.settings,
                     self.design.name(),
-                    &self.design.sha256[..self.design.sha256.len().min(12)],
+                    short(&self.design.sha256),
                     self.preset.name
                 );
                 self.remove_frames(id, &why)?;
