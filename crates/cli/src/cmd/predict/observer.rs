@@ -255,7 +255,6 @@ struct CachedScore {
 enum Against<'a> {
     /// Another sequence of the set (a pair): nothing rendered.
     Sequence,
-    /// A finished rendered reference.
     /// A finished rendered reference: its stamp's SHA-256.
     Rendered(&'a str),
     /// A rendered reference still to render (or to render again): no score holds.
@@ -515,8 +514,6 @@ pub fn qualities(
     let to_render = references.missing(&todo)?;
     let progress = progress_bar(to_render + todo.len(), "reference frames and sequences");
     let observer = VideoObserver::new(settings.display(), Threads::Pool).map_err(|e| BadInput(e.to_string()))?;
-    // The environment map, made when the first reference frame is rendered.
-    let env = std::cell::OnceCell::new();
     let mut renderer = None;
     // Each reference the sequences still to judge need is loaded (rendered, checked, mended)
     // once, before any sequence is judged against it: a reference that changes on the way
@@ -525,12 +522,13 @@ pub fn qualities(
     let mut judged_against: BTreeMap<StimulusId, String> = BTreeMap::new();
     let mut loaded = std::collections::BTreeSet::new();
     for first in &todo {
-        if !loaded.insert(references.key(first)) {
+        let key = references.key(first);
+        if !loaded.insert(key.clone()) {
             continue;
         }
         progress.set_message(first.to_string());
-        let (reference, identity) = references.load_or_render(first, &mut renderer, &env, &progress)?;
-        for id in ids.iter().filter(|id| references.key(id) == references.key(first)) {
+        let (reference, identity) = references.load_or_render(first, &mut renderer, &progress)?;
+        for id in ids.iter().filter(|id| references.key(id) == key) {
             if cache.get(set, &id.to_string(), Against::Rendered(&identity)).is_none() {
                 if !todo.contains(id) {
                     progress.inc_length(1);

@@ -125,6 +125,8 @@ pub struct References<'a> {
     preset: &'a Preset,
     settings: &'a ObserverSettings,
     device: render::DeviceChoice,
+    /// The design's environment map, made when the first frame is rendered.
+    env: std::cell::OnceCell<render::env::EnvironmentMap>,
 }
 
 impl<'a> References<'a> {
@@ -136,7 +138,7 @@ impl<'a> References<'a> {
         settings: &'a ObserverSettings,
         device: render::DeviceChoice,
     ) -> References<'a> {
-        References { set_dir, design, preset, settings, device }
+        References { set_dir, design, preset, settings, device, env: std::cell::OnceCell::new() }
     }
 
     /// The reference `id` is judged against: its folder's name (ids with the same key share it).
@@ -256,10 +258,9 @@ impl<'a> References<'a> {
     /// finished after the last frame. A frame that does not hash as stamped is rendered again;
     /// a reference of another design or preset, or unstamped frames, are rendered again whole.
     pub fn load_or_render<'e>(
-        &self,
+        &'e self,
         id: &StimulusId,
         renderer: &mut Option<render::Renderer<'e>>,
-        env: &'e std::cell::OnceCell<render::env::EnvironmentMap>,
         progress: &indicatif::ProgressBar,
     ) -> anyhow::Result<(Vec<SrgbImage>, String)> {
         let eyes = if id.view == View::Stereo { 2 } else { 1 };
@@ -324,13 +325,14 @@ impl<'a> References<'a> {
                     let r = match renderer {
                         Some(r) => r,
                         None => {
-                            if env.get().is_none() {
+                            if self.env.get().is_none() {
                                 let map = render::env::EnvironmentMap::from_lighting(&self.design.lighting)
                                     .map_err(|e| BadInput(e.to_string()))?;
                                 // Only this call fills the cell, so it was empty.
-                                let _ = env.set(map);
+                                let _ = self.env.set(map);
                             }
-                            let env = env.get().ok_or_else(|| anyhow::anyhow!("the environment map was not made"))?;
+                            let env =
+                                self.env.get().ok_or_else(|| anyhow::anyhow!("the environment map was not made"))?;
                             renderer.insert(render::Renderer::open(self.device, env)?)
                         }
                     };
