@@ -270,6 +270,24 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
         "4",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // The loop a study closes: the measured votes, as `analyze` writes them, are the table a
+    // forecast is compared with.
+    let report = dir.path().join("report");
+    let args = ["analyze", &results, "--manifest", &text(&set), "--out", &text(&report), "--bootstrap", "0"];
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let measured = report.join("mono-2-sampling-2afc-votes.csv");
+    let table_text = std::fs::read_to_string(&measured).unwrap();
+    assert!(table_text.starts_with("# blurlab-votes/1\n") && table_text.contains("# judges: 2\n"), "{table_text}");
+    let compared = dir.path().join("compared");
+    let o = predict(&set, &compared, &["--votes", &text(&measured)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(compared.join("predict.json")).unwrap()).unwrap();
+    assert_eq!(json["judges"], 2);
+    let published: u64 = json["stimuli"].as_array().unwrap().iter().map(|r| r["published"].as_u64().unwrap()).sum();
+    assert_eq!(published, 2 * 10, "two passes over the ten pairs");
+    assert!(json["agreement"]["spearman"].is_number(), "{}", json["agreement"]);
 
     // Bad input, each named.
     let bad = |extra: &[&str], needle: &str| {

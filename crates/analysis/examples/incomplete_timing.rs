@@ -41,6 +41,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         experiments: vec![e],
         mono_stereo_pairs: Vec::new(),
         figures: Vec::new(),
+        vote_tables: Vec::new(),
     };
     let start = Instant::now();
     write_report(&mut report, &out)?;

@@ -24,6 +24,7 @@ use crate::plots::{
     Figure, GridCell, GridFigure, HeatmapFigure, PairCountFigure, PlotError, PreferenceFigure, ScaleFigure,
     ScreeningFigure, SideBySide, VotesFigure, save_figure,
 };
+use crate::votes::VoteTable;
 
 /// Format tag of report.json.
 pub const REPORT_FORMAT: &str = "blurlab-report/1";
@@ -73,6 +74,9 @@ pub struct Report {
     pub mono_stereo_pairs: Vec<(String, String)>,
     /// Figures written, relative to the report folder.
     pub figures: Vec<String>,
+    /// Vote tables written (`blurlab-votes/1`, one per complete 2AFC experiment), relative to
+    /// the report folder.
+    pub vote_tables: Vec<String>,
 }
 
 /// Render costs of every sequence in a set (`SET` folder or its `index.json`).
@@ -183,6 +187,40 @@ pub fn build_report_screened(
         experiments,
         mono_stereo_pairs: pairs,
         figures: Vec::new(),
+        vote_tables: Vec::new(),
+    })
+}
+
+/// The vote totals of a complete 2AFC experiment's complete judges as a vote table, with the
+/// number of judges and the level its groups were made at: `analyze --votes` groups it as the
+/// report did, and `predict --votes` compares a forecast with it. `None` where David's grouping
+/// does not apply (an incomplete design, no complete judge, or no 2AFC trials).
+pub fn vote_table(e: &ExperimentReport) -> Option<VoteTable> {
+    let p = e.paired.as_ref().filter(|p| !p.design.is_incomplete())?;
+    let critical = p.critical?;
+    let left_out = if p.excluded_participants.is_empty() {
+        String::new()
+    } else {
+        format!(", {} flagged participant(s) left out", p.excluded_participants.len())
+    };
+    let source = format!(
+        "blurlab analyze {}: the votes of {} complete passes over the pairs in {} session(s){left_out}; experiment sha256 {}, stimulus set sha256 {}",
+        study::SOFTWARE_VERSION,
+        p.complete_judges,
+        e.sessions.len(),
+        e.experiment_sha256,
+        e.stimulus_set_sha256
+    );
+    Some(VoteTable {
+        path: PathBuf::from(format!("{}-votes.csv", e.name)),
+        header: vec![
+            ("source".into(), source),
+            ("experiment".into(), e.name.clone()),
+            ("judges".into(), critical.judges.to_string()),
+            ("alpha".into(), critical.alpha.to_string()),
+        ],
+        labels: e.labels.clone(),
+        votes: p.votes.clone(),
     })
 }
 
@@ -317,6 +355,13 @@ pub fn write_report(report: &mut Report, dir: &Path) -> Result<PathBuf, ReportEr
         }
     }
     report.figures = figures;
+    report.vote_tables.clear();
+    for table in report.experiments.iter().filter_map(vote_table) {
+        let path = dir.join(&table.path);
+        study::fsio::write_atomic(&path, table.to_text().as_bytes())
+            .map_err(|source| ReportError::Io { path: path.clone(), source })?;
+        report.vote_tables.push(table.path.display().to_string());
+    }
     let json = serde_json::to_string_pretty(&*report).expect("report serialises");
     let json_path = dir.join("report.json");
     study::fsio::write_atomic(&json_path, json.as_bytes())
@@ -415,6 +460,11 @@ pub fn markdown(report: &Report) -> String {
                         c.rc,
                         c.ceil_rc,
                         p.groups.len()
+                    );
+                    let _ = writeln!(
+                        s,
+                        "The vote totals as a table: [`{0}-votes.csv`]({0}-votes.csv) (`blurlab-votes/1`, m = {1}, alpha = {2}): `blurlab analyze --votes` groups it again, `blurlab predict --votes` compares a forecast with it.\n",
+                        e.name, c.judges, c.alpha
                     );
                 }
                 None => {

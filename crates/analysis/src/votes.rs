@@ -1,6 +1,7 @@
 //! Tables of vote totals (`blurlab-votes/1`): the scores `a_i` of a paired-comparison test
 //! with the number of judges and the significance level, as published in the thesis
-//! (`analysis/reference/*.csv`) or exported by a report. Grouping them needs nothing else.
+//! (`analysis/reference/*.csv`) or written by `blurlab analyze` from response logs
+//! (`REPORT/EXPERIMENT-votes.csv`, [`VoteTable::to_text`]). Grouping them needs nothing else.
 //!
 //! ```text
 //! # blurlab-votes/1
@@ -154,6 +155,21 @@ impl VoteTable {
         self.parsed("alpha")
     }
 
+    /// The table as text, in the format [`VoteTable::parse`] reads back: header fields in
+    /// order (line breaks in a value become spaces, so that one field stays one line), then
+    /// one row per stimulus.
+    pub fn to_text(&self) -> String {
+        let mut s = format!("# {VOTES_FORMAT}\n");
+        for (k, v) in &self.header {
+            s.push_str(&format!("# {k}: {}\n", v.split(['\n', '\r']).collect::<Vec<_>>().join(" ")));
+        }
+        s.push_str("stimulus,votes\n");
+        for (label, v) in self.labels.iter().zip(&self.votes) {
+            s.push_str(&format!("{label},{v}\n"));
+        }
+        s
+    }
+
     /// Groups to reproduce (`expected_groups: A B; C D`), if given.
     pub fn expected_groups(&self) -> Option<Vec<Vec<String>>> {
         self.get("expected_groups")
@@ -229,5 +245,28 @@ mod tests {
         }
         let e = VoteTable::parse(p, "stimulus,votes\n").unwrap_err().to_string();
         assert!(e.contains("line 1"), "{e}");
+    }
+
+    #[test]
+    fn a_table_written_as_text_reads_back_the_same() {
+        let p = Path::new("votes.csv");
+        let table = VoteTable {
+            path: p.to_owned(),
+            header: vec![
+                ("source".into(), "two lines\nof text: with a colon".into()),
+                ("judges".into(), "21".into()),
+                ("alpha".into(), "0.01".into()),
+            ],
+            labels: vec!["T3-A5".into(), "T4-A5".into(), "T5-A5".into()],
+            votes: vec![30, 21, 12],
+        };
+        let text = table.to_text();
+        assert!(text.starts_with("# blurlab-votes/1\n# source: two lines of text: with a colon\n"), "{text}");
+        let back = VoteTable::parse(p, &text).unwrap();
+        assert_eq!(back.labels, table.labels);
+        assert_eq!(back.votes, table.votes);
+        assert_eq!(back.judges().unwrap(), Some(21));
+        assert_eq!(back.alpha().unwrap(), Some(0.01));
+        assert_eq!(back.get("source"), Some("two lines of text: with a colon"));
     }
 }

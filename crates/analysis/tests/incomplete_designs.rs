@@ -57,6 +57,7 @@ fn report_of(e: ExperimentReport) -> Report {
         experiments: vec![e],
         mono_stereo_pairs: Vec::new(),
         figures: Vec::new(),
+        vote_tables: Vec::new(),
     }
 }
 
@@ -228,6 +229,9 @@ fn the_report_folder_has_the_pairs_heat_map_and_the_screening_plot() {
     }
     // No vote figures: votes of complete judges do not exist here.
     assert!(!out.join("simulated-incomplete-votes.png").exists() && !text.contains("-votes.png"));
+    // Nor a vote table: David's grouping does not apply to them.
+    assert!(!out.join("simulated-incomplete-votes.csv").exists() && report.vote_tables.is_empty());
+    assert!(!text.contains("-votes.csv"));
     // The heat map counts are the pairs shown.
     let p = report.experiments[0].paired.as_ref().unwrap();
     let counts = p.pair_counts();

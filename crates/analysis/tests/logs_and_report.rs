@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use analysis::experiment::{AnalysisOptions, JudgeUnit};
 use analysis::report::{build_report, write_report};
 use analysis::scaling::ScaleOptions;
+use analysis::votes::{VoteTable, analyze_votes, groups_as_sets};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use study::StimulusId;
@@ -288,9 +289,27 @@ fn mono_and_stereo_interactions_give_a_full_report_with_costs_and_figures() {
             assert!(std::fs::metadata(&f).map(|m| m.len() > 1000).unwrap_or(false), "{}", f.display());
         }
     }
+    // Each experiment's vote totals as a vote table, which groups as the report did.
+    assert_eq!(report.vote_tables, ["mono-3-interactions-votes.csv", "stereo-3-interactions-votes.csv"]);
+    assert!(text.contains("[`mono-3-interactions-votes.csv`](mono-3-interactions-votes.csv)"));
+    for e in &report.experiments {
+        let p = e.paired.as_ref().unwrap();
+        let table = VoteTable::read(&out.join(format!("{}-votes.csv", e.name))).unwrap();
+        assert_eq!((&table.labels, &table.votes), (&e.labels, &p.votes));
+        assert_eq!(table.get("experiment"), Some(e.name.as_str()));
+        assert!(table.get("source").unwrap().contains(&e.experiment_sha256));
+        let (judges, alpha) = (table.judges().unwrap().unwrap(), table.alpha().unwrap().unwrap());
+        assert_eq!((judges, alpha), (p.complete_judges, options().alpha));
+        let regrouped = analyze_votes(&table, judges, alpha).unwrap();
+        let groups: Vec<Vec<String>> =
+            p.groups.iter().map(|g| g.members.iter().map(|m| m.label.clone()).collect()).collect();
+        assert_eq!(groups_as_sets(&regrouped.groups), groups_as_sets(&groups));
+        assert_eq!(regrouped.critical.ceil_rc, p.critical.unwrap().ceil_rc);
+    }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(json["format"], "blurlab-report/1");
+    assert_eq!(json["vote_tables"][1], "stereo-3-interactions-votes.csv");
     assert_eq!(json["experiments"][0]["paired"]["critical"]["ceil_rc"], c.ceil_rc);
     assert_eq!(json["experiments"][0]["paired"]["scale"]["options"]["seed"], 3);
 }
