@@ -21,6 +21,14 @@
 #                                                # quality naming the better of the two);
 #                                                # TABLE: 5.6.3 5.7.2
 #                                                # 6.5.2-sampling 6.5.2-shutter 6.6.2 (default all)
+#   bench/observer-tables.sh prereg              # forecasts for a test no one has taken yet
+#                                                # (test #3 at the fast speed,
+#                                                # experiments/mono-3-interactions-fast.toml): the
+#                                                # frozen observer, FLIP and the post hoc pursuit
+#                                                # observers, into $OUT/preregistered/
+#   bench/observer-tables.sh compare VOTES       # once people have taken it: the same four
+#                                                # forecasts against their votes (VOTES: the
+#                                                # report's mono-3-interactions-fast-votes.csv)
 #
 # The protocol: the reference (and any setting) is chosen on the mono tables only; the stereo
 # tables are then run once with everything frozen. Each step resumes: the clip set verifies
@@ -44,7 +52,30 @@ predict() { # EXPERIMENT TABLE NAME OBSERVER-ARGS...
   "$BIN" predict "experiments/$exp.toml" --stimuli "$SET" --votes "analysis/reference/$table.csv" \
     --device "$DEVICE" --out "$OUT/$name" "$@"
 }
+prereg() { # NAME [VOTES] (the four observers of the recorded forecasts, into $OUT/preregistered/)
+  local name=$1 votes=${2:-} dir=$OUT/preregistered/mono-3-interactions-fast
+  local -a extra=()
+  [ -n "$votes" ] && extra=(--votes "$votes")
+  render mono "M2 S3 T3-T5 A3-A5"
+  for observer in flip shutter sharp-pursuit sharp-pursuit-pair; do
+    case $observer in
+      flip) args=(--observer flip) ;;
+      shutter) args=(--reference shutter) ;;
+      sharp-pursuit) args=(--reference sharp --eye-movement pursuit) ;;
+      sharp-pursuit-pair) args=(--reference sharp --eye-movement pursuit --judging pair) ;;
+    esac
+    echo "== $name $observer ($(date -u +%H:%M:%S))" >&2
+    "$BIN" predict experiments/mono-3-interactions-fast.toml --stimuli "$SET" --device "$DEVICE" \
+      --out "$dir/$name$observer" "${args[@]}" "${extra[@]}"
+  done
+}
 case "${1:-}" in
+  prereg)
+    prereg ""
+    ;;
+  compare)
+    prereg compared- "${2:?"give the vote table the report of the people's sessions wrote"}"
+    ;;
   mono)
     render mono "M3 S2 T3 *"
     render mono "M2 S2 T3-T5 A3-A5"
@@ -111,7 +142,7 @@ PY
     "$0" stereo "$ref"
     ;;
   *)
-    sed -n '2,29p' "$0"
+    sed -n '2,37p' "$0"
     exit 2
     ;;
 esac
