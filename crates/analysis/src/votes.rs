@@ -161,7 +161,7 @@ impl VoteTable {
     pub fn to_text(&self) -> String {
         let mut s = format!("# {VOTES_FORMAT}\n");
         for (k, v) in &self.header {
-            s.push_str(&format!("# {k}: {}\n", v.split(['\n', '\r']).collect::<Vec<_>>().join(" ")));
+            s.push_str(&format!("# {k}: {}\n", v.replace(['\n', '\r'], " ")));
         }
         s.push_str("stimulus,votes\n");
         for (label, v) in self.labels.iter().zip(&self.votes) {

@@ -325,14 +325,14 @@ impl<'a> References<'a> {
                     let r = match renderer {
                         Some(r) => r,
                         None => {
-                            if self.env.get().is_none() {
-                                let map = render::env::EnvironmentMap::from_lighting(&self.design.lighting)
-                                    .map_err(|e| BadInput(e.to_string()))?;
-                                // Only this call fills the cell, so it was empty.
-                                let _ = self.env.set(map);
-                            }
-                            let env =
-                                self.env.get().ok_or_else(|| anyhow::anyhow!("the environment map was not made"))?;
+                            let env = match self.env.get() {
+                                Some(env) => env,
+                                None => {
+                                    let map = render::env::EnvironmentMap::from_lighting(&self.design.lighting)
+                                        .map_err(|e| BadInput(e.to_string()))?;
+                                    self.env.get_or_init(|| map)
+                                }
+                            };
                             renderer.insert(render::Renderer::open(self.device, env)?)
                         }
                     };
