@@ -26,8 +26,11 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     render_quick_set(&shipped_design(), "M3 S2 T3 *", &set);
     let table = text(&repo_root().join("analysis/reference/thesis-5.6.3-mono-sampling-2afc.csv"));
 
+    // The `eye` reference: four sub-frames per frame, so its stamping and resuming are tested
+    // on the reference with the most frames.
+    let eye = ["--reference", "eye", "--votes", table.as_str()];
     let out = dir.path().join("eye");
-    let o = predict(&set, &out, &["--votes", &table]);
+    let o = predict(&set, &out, &eye);
     assert!(o.status.success(), "{}", stderr(&o));
     for f in ["predict.md", "predict.json", "votes.csv", "matrix.csv", "groups.png", "predicted-vs-published.svg"] {
         assert!(out.join(f).is_file(), "{f} missing");
@@ -73,7 +76,7 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     scores["scores"].as_object_mut().unwrap().remove("M3-S2-T3-A2");
     std::fs::write(&cache, serde_json::to_vec(&scores).unwrap()).unwrap();
     let again = dir.path().join("again");
-    let o = predict(&set, &again, &["--votes", &table]);
+    let o = predict(&set, &again, &eye);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read(out.join("votes.csv")).unwrap(), std::fs::read(again.join("votes.csv")).unwrap());
     let scores: serde_json::Value = serde_json::from_slice(&std::fs::read(&cache).unwrap()).unwrap();
@@ -102,7 +105,7 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     scores["scores"].as_object_mut().unwrap().remove("M3-S2-T3-A3");
     std::fs::write(&cache, serde_json::to_vec(&scores).unwrap()).unwrap();
     let mended = dir.path().join("mended");
-    let o = predict(&set, &mended, &["--votes", &table]);
+    let o = predict(&set, &mended, &eye);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("frame-0000-00.png: does not hash as its reference's stamp records"), "{}", stderr(&o));
     assert!(std::fs::read(&reference_frame).unwrap() == frame_bytes);
@@ -115,7 +118,7 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     // (Not even a hash: a message quoting it must not split a character.)
     other["design_sha256"] = serde_json::Value::from(format!("x{}", "é".repeat(40)));
     std::fs::write(&stamp_path, serde_json::to_vec_pretty(&other).unwrap()).unwrap();
-    let o = predict(&set, &dir.path().join("redone"), &["--votes", &table]);
+    let o = predict(&set, &dir.path().join("redone"), &eye);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("rendering the reference again"), "{}", stderr(&o));
     assert!(std::fs::metadata(&reference_frame).unwrap().modified().unwrap() > mended_at);
@@ -127,23 +130,27 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     // Frames without a stamp (rendered before references were stamped, when their seeds
     // depended on which sequence asked first) are rendered again: here to the same bytes.
     std::fs::remove_file(&stamp_path).unwrap();
-    let o = predict(&set, &dir.path().join("restamped"), &["--votes", &table]);
+    let o = predict(&set, &dir.path().join("restamped"), &eye);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("frames without a stamp"), "{}", stderr(&o));
     assert!(
         std::fs::read(&stamp_path).unwrap() == stamp_bytes && std::fs::read(&reference_frame).unwrap() == frame_bytes
     );
     std::fs::write(&stamp_path, b"{ not a stamp").unwrap();
-    let o = predict(&set, &dir.path().join("bad"), &[]);
+    let o = predict(&set, &dir.path().join("bad"), &["--reference", "eye"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("reference.json: not a reference stamp"), "{}", stderr(&o));
     std::fs::write(&stamp_path, &stamp_bytes).unwrap();
 
     // The other references and the FLIP baseline run on the same set, each reference in its
     // own folder (`sharp`: four instants per frame, as many frames as `eye`).
-    for reference in ["shutter", "sharp"] {
-        let o = predict(&set, &dir.path().join(reference), &["--reference", reference]);
+    // Without `--reference` the observer is the one the protocol froze: `shutter`.
+    for (reference, args) in [("shutter", &[][..]), ("sharp", &["--reference", "sharp"][..])] {
+        let o = predict(&set, &dir.path().join(reference), args);
         assert!(o.status.success(), "{reference}: {}", stderr(&o));
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join(reference).join("predict.json")).unwrap()).unwrap();
+        assert_eq!(json["settings"]["reference"], reference);
     }
     let folders: Vec<String> = std::fs::read_dir(set.join("observer/reference"))
         .unwrap()
@@ -249,7 +256,7 @@ fn a_forecast_ranks_noise_resumes_from_its_cache_and_refuses_bad_input() {
     let stamp = std::fs::metadata(&cache).unwrap().modified().unwrap();
     render_quick_set(&shipped_design(), "M2 S3 T1,T5 A5", &set);
     let grown = dir.path().join("grown");
-    let o = predict(&set, &grown, &["--votes", &table]);
+    let o = predict(&set, &grown, &eye);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read(out.join("votes.csv")).unwrap(), std::fs::read(grown.join("votes.csv")).unwrap());
     assert_eq!(std::fs::metadata(&cache).unwrap().modified().unwrap(), stamp);

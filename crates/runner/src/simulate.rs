@@ -11,7 +11,8 @@
 //! - `flip[:sigma=S]`: the image-computable observer of [`crate::flip_observer`]: FLIP
 //!   distances of the frames themselves to the gold standard (2AFC) or to the reference
 //!   (matching), plus Gaussian decision noise of `S` FLIP units.
-//! - `cvvdp[:reference=eye|shutter|sharp]`: the ColorVideoVDP observer of `blurlab predict`. Its
+//! - `cvvdp[:reference=shutter|eye|sharp]`: the ColorVideoVDP observer of `blurlab predict`
+//!   (its default reference `shutter`, the one the protocol chose on the mono tables). Its
 //!   qualities (JOD against the reference) and, for matching, its JOD distances of each
 //!   candidate from the shown reference are computed by the caller (the command line renders
 //!   the references) and handed over with [`ObserverModel::with_cvvdp`]. A 2AFC answer prefers
@@ -178,13 +179,13 @@ impl FromStr for ObserverModel {
                 Ok(ObserverModel::Thurstone { sigma, quality })
             }
             "cvvdp" => {
-                let mut reference = "eye".to_owned();
+                let mut reference = "shutter".to_owned();
                 for param in params.split(',').filter(|p| !p.is_empty()) {
                     match param.split_once('=') {
                         Some(("reference", v @ ("eye" | "shutter" | "sharp"))) => reference = v.to_owned(),
                         _ => {
                             return Err(bad(format!(
-                                "unknown parameter `{param}` (expected reference=eye, reference=shutter or reference=sharp)"
+                                "unknown parameter `{param}` (expected reference=shutter, reference=eye or reference=sharp)"
                             )));
                         }
                     }
@@ -192,7 +193,7 @@ impl FromStr for ObserverModel {
                 Ok(ObserverModel::Cvvdp { reference, quality: HashMap::new(), distances: HashMap::new() })
             }
             _ => Err(bad(
-                "expected `thurstone[:sigma=S][,file=PATH]`, `flip[:sigma=S]`, `cvvdp[:reference=eye|shutter|sharp]` or `random`"
+                "expected `thurstone[:sigma=S][,file=PATH]`, `flip[:sigma=S]`, `cvvdp[:reference=shutter|eye|sharp]` or `random`"
                     .into(),
             )),
         }
@@ -501,6 +502,7 @@ mod tests {
         assert!((p - 0.75).abs() < 0.031, "{p}");
         // Without its qualities the model refuses the schedule, naming the trial.
         let bare: ObserverModel = "cvvdp".parse().unwrap();
+        assert!(matches!(&bare, ObserverModel::Cvvdp { reference, .. } if reference == "shutter"));
         let e = bare.check(&[Trial { index: 0, practice: false, task: Task::TwoAfc, shown: vec![a, b] }]).unwrap_err();
         assert!(e.to_string().contains("no ColorVideoVDP quality for trial 0"), "{e}");
         let sharp: ObserverModel = "cvvdp:reference=sharp".parse().unwrap();

@@ -183,7 +183,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The ColorVideoVDP forecast of each experiment (`blurlab predict`, the `eye` reference, as
+/// The ColorVideoVDP forecast of each experiment (`blurlab predict`, its `shutter` reference, as
 /// many judges as the simulated participants' analysis counts) into `OUT/predict/NAME/`, and a
 /// Markdown section of its groups beside the measured ones.
 fn cvvdp_forecasts(
@@ -192,7 +192,7 @@ fn cvvdp_forecasts(
     measured: &analysis::report::Report,
 ) -> anyhow::Result<String> {
     let mut md = String::from(
-        "\n# Forecast by ColorVideoVDP\n\nExpected votes of `blurlab predict` (the `eye` reference, no sampling noise), grouped \
+        "\n# Forecast by ColorVideoVDP\n\nExpected votes of `blurlab predict` (the `shutter` reference, no sampling noise), grouped \
          with as many judges as the measured analysis counts. On the quick preset (160x90, 8 frames, 1-16 samples per \
          pixel) this is not the study's forecast: see BENCHMARKS.md for the full preset's.\n",
     );
@@ -204,7 +204,7 @@ fn cvvdp_forecasts(
             experiment: d.path.clone(),
             stimuli: args.set.clone(),
             observer: super::predict::ObserverArg::Cvvdp,
-            reference: super::predict::observer::ReferenceKind::Eye,
+            reference: super::predict::observer::ReferenceKind::Shutter,
             reference_spp: None,
             sub_frames: super::predict::observer::DEFAULT_SUB_FRAMES,
             eye_movement: super::predict::EyeMovementArg::Fixation,

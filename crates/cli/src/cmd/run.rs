@@ -31,8 +31,8 @@ pub struct Args {
     /// Run headlessly with a simulated observer: `thurstone[:sigma=S][,file=PATH]`, `random`, or
     /// `flip[:sigma=S]` (answers from the frames: FLIP distance to the gold standard A5 of the
     /// same material, speed and shutter; matching picks the candidate nearer the reference), or
-    /// `cvvdp[:reference=eye|shutter|sharp]` (the ColorVideoVDP observer of `blurlab predict`, its
-    /// choice probabilities sampled).
+    /// `cvvdp[:reference=shutter|eye|sharp]` (the ColorVideoVDP observer of `blurlab predict`, its
+    /// choice probabilities sampled; the reference by default `shutter`, as in `predict`).
     #[arg(long)]
     simulate: Option<String>,
     /// Seed of a new session's schedule (and of the simulated observer). A resumed session
