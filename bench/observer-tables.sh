@@ -29,6 +29,11 @@
 #   bench/observer-tables.sh compare VOTES       # once people have taken it: the same four
 #                                                # forecasts against their votes (VOTES: the
 #                                                # report's mono-3-interactions-fast-votes.csv)
+#   bench/observer-tables.sh ceiling             # what a perfect forecast of the five tables
+#                                                # reaches against their own noise (`blurlab
+#                                                # stats ceiling`), beside the frozen observer,
+#                                                # FLIP and the post hoc pursuit pairs, into
+#                                                # $OUT/ceiling/ (seconds: no rendering)
 #
 # The protocol: the reference (and any setting) is chosen on the mono tables only; the stereo
 # tables are then run once with everything frozen. Each step resumes: the clip set verifies
@@ -136,13 +141,29 @@ PY
         --judging pair
     done
     ;;
+  ceiling)
+    tables=()
+    for t in 5.6.3-mono-sampling-2afc 5.7.2-mono-interactions 6.5.2-stereo-sampling 6.5.2-stereo-shutter \
+      6.6.2-stereo-interactions; do
+      tables+=("analysis/reference/thesis-$t.csv")
+    done
+    forecasts=()
+    for f in 5.6.3-shutter 5.7.2-shutter 6.5.2-sampling-shutter 6.5.2-shutter-shutter 6.6.2-shutter \
+      5.6.3-flip 5.7.2-flip 6.5.2-sampling-flip 6.5.2-shutter-flip 6.6.2-flip \
+      explore/5.6.3-sharp-pursuit-pair explore/5.7.2-sharp-pursuit-pair explore/6.5.2-sampling-sharp-pursuit-pair \
+      explore/6.5.2-shutter-sharp-pursuit-pair explore/6.6.2-sharp-pursuit-pair; do
+      forecasts+=(--forecast "$OUT/$f/predict.json")
+    done
+    "$BIN" stats ceiling "${tables[@]}" "${forecasts[@]}" --replications 10000 \
+      --seed 1 --out "$OUT/ceiling"
+    ;;
   all)
     "$0" mono
     ref=$("$0" choose)
     "$0" stereo "$ref"
     ;;
   *)
-    sed -n '2,37p' "$0"
+    sed -n '2,42p' "$0"
     exit 2
     ;;
 esac

@@ -1,5 +1,6 @@
 //! End-to-end: `blurlab analyze --votes` reproduces every transcribed thesis table's
-//! ceil(R_c) and groups as published, and `blurlab stats srange-quantile` prints W.
+//! ceil(R_c) and groups as published, `blurlab stats srange-quantile` prints W, and `blurlab
+//! stats ceiling` sets forecasts beside what a perfect one reaches against a table's noise.
 
 use blurlab_e2e::{repo_root, run, stderr, stdout};
 
@@ -44,6 +45,70 @@ fn srange_quantile_matches_the_published_table() {
         let w = v["w"].as_f64().unwrap();
         assert!((w - expected).abs() < 6e-4, "W({t}, {alpha}) = {w}, expected {expected}");
     }
+}
+
+#[test]
+fn the_ceiling_of_the_thesis_tables_and_the_forecasts_beside_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let sampling = "analysis/reference/thesis-5.6.3-mono-sampling-2afc.csv";
+    let interactions = "analysis/reference/thesis-5.7.2-mono-interactions.csv";
+    let forecasts = ["analysis/observer/5.6.3-shutter/predict.json", "analysis/observer/5.7.2-shutter/predict.json"];
+    let out = dir.path().join("ceiling");
+    let args = ["stats", "ceiling", sampling, interactions, "--replications", "500", "--seed", "3"];
+    let o =
+        run(&[&args[..], &["--forecast", forecasts[0], "--forecast", forecasts[1], "--out", out.to_str().unwrap()]]
+            .concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in ["ceiling.md", "ceiling.json", "ceiling.png", "ceiling.svg"] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("ceiling.json")).unwrap()).unwrap();
+    assert_eq!(json["format"], "blurlab-ceiling/1");
+    for (t, stimuli) in [(0, 5), (1, 9)] {
+        let table = &json["tables"][t];
+        // The fitted qualities give back the table's totals (within the fit's tolerance).
+        let q: Vec<f64> = table["fitted"]["truth"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        let votes: Vec<f64> = table["votes"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        let judges = table["judges"].as_f64().unwrap();
+        assert_eq!(q.len(), stimuli);
+        for i in 0..stimuli {
+            let expected: f64 =
+                (0..stimuli).filter(|&j| j != i).map(|j| judges * study::stats::jod_preference(q[i], q[j])).sum();
+            assert!((expected - votes[i]).abs() < 1e-6, "table {t} stimulus {i}: {expected} against {}", votes[i]);
+        }
+        let fitted = &table["fitted"]["spearman"];
+        let shrunk = &table["shrunk"]["spearman"];
+        assert!(fitted["mean"].as_f64().unwrap() > 0.8 && fitted["q95"].as_f64().unwrap() <= 1.0, "{fitted}");
+        assert!(shrunk["mean"].as_f64().unwrap() <= fitted["mean"].as_f64().unwrap() + 0.01, "{shrunk}");
+        assert!((0.0..=1.0).contains(&table["shrink"].as_f64().unwrap()));
+    }
+    // The frozen observer's 1.000 on 5.6.3 is never beaten; its 0.450 on 5.7.2 nearly always.
+    let points = json["forecasts"].as_array().unwrap();
+    assert_eq!(points[0]["perfect_no_better"][0], 1.0);
+    assert!(points[1]["perfect_no_better"][0].as_f64().unwrap() < 0.01, "{}", points[1]);
+    let md = std::fs::read_to_string(out.join("ceiling.md")).unwrap();
+    assert!(md.contains("cvvdp `shutter`: mean Spearman 0.725 over the 2 tables"), "{md}");
+    // The same seed, the same numbers; JSON on standard output without --out.
+    let o = run(&[&args[..], &["--json"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let again: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(again["tables"], json["tables"]);
+
+    // Bad input, each named.
+    let bad = |extra: &[&str], needle: &str| {
+        let o = run(&[&["stats", "ceiling"][..], extra].concat());
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "expected `{needle}` in: {}", stderr(&o));
+    };
+    bad(&[sampling, "--forecast", forecasts[1]], "is not one of the tables given");
+    bad(&[sampling, "--goal-mean", "1.5"], "--goal-mean 1.5: expected a Spearman correlation in [-1, 1]");
+    bad(&[sampling, "--replications", "1"], "1 replications: at least 2 are needed");
+    let no_judges = dir.path().join("no-judges.csv");
+    std::fs::write(&no_judges, "# blurlab-votes/1\nstimulus,votes\nA,15\nB,5\n").unwrap();
+    bad(&[no_judges.to_str().unwrap()], "no-judges.csv: no `judges` header; give --judges");
+    bad(&[no_judges.to_str().unwrap(), "--judges", "19"], "the votes total 20, but 19 judgements");
+    let o = run(&["stats", "ceiling", no_judges.to_str().unwrap(), "--judges", "20", "--replications", "100"]);
+    assert!(o.status.success() && stdout(&o).contains("| 2 | 20 | A +0.50, B -0.50 |"), "{}", stdout(&o));
 }
 
 #[test]

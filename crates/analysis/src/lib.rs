@@ -9,9 +9,11 @@
 //! screening, leave one participant out). [`logs`] reads and checks the
 //! runner's response logs, [`experiment`] analyses one experiment (matching accuracy and
 //! cost-aware equivalence included), [`report`] and [`plots`] write the report folder, and
-//! [`votes`] reads published vote totals, and [`forecast`] turns an image-computable
-//! observer's qualities into expected votes and groups and compares them with published ones.
+//! [`votes`] reads published vote totals, [`forecast`] turns an image-computable
+//! observer's qualities into expected votes and groups and compares them with published ones,
+//! and [`ceiling`] measures what a perfect forecast reaches against a table's own noise.
 
+pub mod ceiling;
 pub mod cost;
 pub mod experiment;
 pub mod factors;

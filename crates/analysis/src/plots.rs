@@ -3,8 +3,9 @@
 //! figures 5.6 and 6.8), the matching accuracy heat map (figure 5.5), preference bars with
 //! standard-error bars per factor and segment (figures 5.4 and 6.5), and the Thurstone scale
 //! with confidence intervals, the counts of the pairs shown (a heat map with a colour bar,
-//! readable at 225 x 225) and the observer screening (one point per participant with the
-//! threshold line). Text uses the Ubuntu Light font bundled by the
+//! readable at 225 x 225), the observer screening (one point per participant with the
+//! threshold line) and what a perfect forecast of vote tables reaches beside the forecasts
+//! made. Text uses the Ubuntu Light font bundled by the
 //! `epaint_default_fonts` crate (no system fonts). Files are written atomically.
 
 use std::path::{Path, PathBuf};
@@ -160,12 +161,20 @@ fn is_one_two_five(v: f64) -> bool {
 
 /// Draws the series' legend of a [`log_log_chart`] in its upper right corner.
 pub fn draw_legend<'a, DB: DrawingBackend + 'a>(chart: &mut LogLogChart<'a, DB>) -> Result<(), String> {
+    legend_at(chart, SeriesLabelPosition::UpperRight)
+}
+
+/// Draws the series' legend of any chart at `position`, on a light box.
+fn legend_at<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> Result<(), String> {
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK.mix(0.3))
         .label_font((FONT, 12.0))
-        .position(SeriesLabelPosition::UpperRight)
+        .position(position)
         .draw()
         .map_err(err)
 }
@@ -337,6 +346,127 @@ impl Figure for ForecastScatter {
 }
 
 const POINT_RADIUS: u32 = 5;
+
+/// A distribution as [`CeilingFigure`] marks it: (5 %, median, mean, 95 %).
+pub type SpreadMarks = (f64, f64, f64, f64);
+
+/// What a perfect forecast of each vote table reaches against the table's own noise
+/// (`crate::ceiling`): per table and estimate, the 5-95 % range of its Spearman correlation
+/// over replicate tables, a tick at the median and a dot at the mean; the forecasts actually
+/// made as crosses; the goal's floor and mean as dashed lines.
+#[derive(Debug, Clone)]
+pub struct CeilingFigure {
+    /// Title.
+    pub title: String,
+    /// The tables' short names, left to right.
+    pub tables: Vec<String>,
+    /// Estimates: a name and per table the perfect forecast's Spearman.
+    pub perfect: Vec<(String, Vec<SpreadMarks>)>,
+    /// Forecasts: a name and its Spearman on some tables (index into `tables`).
+    pub forecasts: Vec<(String, Vec<(usize, f64)>)>,
+    /// Dashed reference lines: a label and its Spearman (e.g. the goal's floor and mean).
+    pub lines: Vec<(String, f64)>,
+}
+
+impl Figure for CeilingFigure {
+    fn size(&self) -> (u32, u32) {
+        (240 + 160 * self.tables.len() as u32, 600)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        let n = self.tables.len();
+        let low = self
+            .perfect
+            .iter()
+            .flat_map(|(_, v)| v.iter().map(|p| p.0))
+            .chain(self.forecasts.iter().flat_map(|(_, v)| v.iter().map(|p| p.1)))
+            .fold(0.0f64, f64::min);
+        // Room below the lowest point for the legend, so that it covers no point.
+        let data_bottom = (low * 10.0).floor() / 10.0 - 0.1;
+        let legend_px = 20.0 * (self.perfect.len() + self.forecasts.len()) as f64 + 16.0;
+        let plot_px = f64::from(self.size().1) - 120.0;
+        let bottom = data_bottom - (1.08 - data_bottom) * legend_px / (plot_px - legend_px);
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, text_style(18.0))
+            .margin(14)
+            .x_label_area_size(40)
+            .y_label_area_size(55)
+            .build_cartesian_2d(-0.6..n as f64 - 0.4, bottom..1.08)
+            .map_err(err)?;
+        let names = self.tables.clone();
+        let label = move |x: &f64| {
+            let k = x.round();
+            if (x - k).abs() < 1e-9 && k >= 0.0 {
+                names.get(k as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        };
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(n.max(1) * 4 + 1)
+            .x_label_formatter(&label)
+            .y_label_formatter(&|v: &f64| format!("{:.1}", if v.abs() < 1e-9 { 0.0 } else { *v }))
+            .y_desc("Spearman with the table's votes")
+            .label_style(text_style(13.0))
+            .axis_desc_style(text_style(15.0))
+            .draw()
+            .map_err(err)?;
+        for (name, y) in &self.lines {
+            let style = BLACK.mix(0.45).stroke_width(1);
+            let dashes: Vec<PathElement<(f64, f64)>> = (0..(n * 12).max(1))
+                .map(|k| {
+                    let x0 = -0.6 + k as f64 * (n as f64 + 0.2) / (n * 12).max(1) as f64;
+                    PathElement::new(vec![(x0, *y), (x0 + 0.05, *y)], style)
+                })
+                .collect();
+            chart.draw_series(dashes).map_err(err)?;
+            chart
+                .draw_series([Text::new(
+                    name.clone(),
+                    (-0.55, *y + 0.015),
+                    text_style(12.0).pos(Pos::new(HPos::Left, VPos::Bottom)),
+                )])
+                .map_err(err)?;
+        }
+        let estimates = self.perfect.len().max(1) as f64;
+        for (e, (name, per_table)) in self.perfect.iter().enumerate() {
+            let colour = if e == 0 { group_colour(0) } else { RGBColor(114, 159, 207) };
+            let dx = -0.12 * (estimates - 1.0) / 2.0 + 0.12 * e as f64 - 0.1;
+            for (k, &(q05, median, _, q95)) in per_table.iter().enumerate() {
+                let x = k as f64 + dx;
+                chart.draw_series([PathElement::new(vec![(x, q05), (x, q95)], colour.stroke_width(4))]).map_err(err)?;
+                chart
+                    .draw_series([PathElement::new(
+                        vec![(x - 0.05, median), (x + 0.05, median)],
+                        colour.stroke_width(2),
+                    )])
+                    .map_err(err)?;
+            }
+            chart
+                .draw_series(
+                    per_table
+                        .iter()
+                        .enumerate()
+                        .map(|(k, p)| Circle::new((k as f64 + dx, p.2), POINT_RADIUS, colour.filled())),
+                )
+                .map_err(err)?
+                .label(name.clone())
+                .legend(move |(x, y)| Circle::new((x + 8, y), POINT_RADIUS, colour.filled()));
+        }
+        for (f, (name, points)) in self.forecasts.iter().enumerate() {
+            // The group colours but blue (the estimates') and grey (the lines').
+            let c = group_colour([1, 2, 4, 5, 6, 7][f % 6]);
+            let dx = 0.2 + 0.07 * f as f64;
+            chart
+                .draw_series(points.iter().map(|&(k, r)| Cross::new((k as f64 + dx, r), 6, c.stroke_width(3))))
+                .map_err(err)?
+                .label(name.clone())
+                .legend(move |(x, y)| Cross::new((x + 8, y), 6, c.stroke_width(3)));
+        }
+        legend_at(&mut chart, SeriesLabelPosition::LowerRight)
+    }
+}
 
 /// Where each point's label goes (top-left corners, in pixels): beside its point (a dot of
 /// `radius`), on the first of eight sides where the label stays inside `area` (left, top,

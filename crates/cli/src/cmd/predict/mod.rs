@@ -276,7 +276,7 @@ fn level_tokens(label: &str) -> Vec<String> {
 }
 
 /// The position in `labels` of a published table's label (the same factor levels).
-fn label_index(label: &str, labels: &[String]) -> Option<usize> {
+pub(crate) fn label_index(label: &str, labels: &[String]) -> Option<usize> {
     let t = level_tokens(label);
     labels.iter().position(|l| level_tokens(l) == t)
 }
