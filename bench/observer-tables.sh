@@ -28,7 +28,8 @@
 #                                                # observers, into $OUT/preregistered/
 #   bench/observer-tables.sh compare VOTES       # once people have taken it: the same four
 #                                                # forecasts against their votes (VOTES: the
-#                                                # report's mono-3-interactions-fast-votes.csv)
+#                                                # report's mono-3-interactions-fast-votes.csv),
+#                                                # and beside the votes' ceiling (stats ceiling)
 #   bench/observer-tables.sh ceiling             # what a perfect forecast of the five tables
 #                                                # reaches against their own noise (`blurlab
 #                                                # stats ceiling`), beside the frozen observer,
@@ -79,7 +80,15 @@ case "${1:-}" in
     prereg ""
     ;;
   compare)
-    prereg compared- "${2:?"give the vote table the report of the people's sessions wrote"}"
+    votes=${2:?"give the vote table the report of the people's sessions wrote"}
+    prereg compared- "$votes"
+    # And how far each forecast is from a perfect one, given the measured votes' own noise.
+    dir=$OUT/preregistered/mono-3-interactions-fast
+    forecasts=()
+    for observer in flip shutter sharp-pursuit sharp-pursuit-pair; do
+      forecasts+=(--forecast "$dir/compared-$observer/predict.json")
+    done
+    "$BIN" stats ceiling "$votes" "${forecasts[@]}" --replications 10000 --seed 1 --out "$dir/compared-ceiling"
     ;;
   mono)
     render mono "M3 S2 T3 *"
@@ -163,7 +172,7 @@ PY
     "$0" stereo "$ref"
     ;;
   *)
-    sed -n '2,42p' "$0"
+    sed -n '2,43p' "$0"
     exit 2
     ;;
 esac

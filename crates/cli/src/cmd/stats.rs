@@ -360,7 +360,8 @@ fn ceiling_markdown(
             md.push_str(&format!("\n{}: {}.\n", c.table, notes.join("; ")));
         }
     }
-    if let (Some(f), Some(s)) = goals {
+    // Over one table the goal is that table's column above.
+    if let (Some(f), Some(s), true) = (goals.0, goals.1, ceilings.len() > 1) {
         md.push_str(&format!(
             "\n## The goal over the {} tables\n\nA mean Spearman of at least {} and none below {}, reached by a perfect \
              forecast in a replicate study (every table run again):\n\n\
@@ -401,7 +402,9 @@ fn ceiling_markdown(
                 share(f.perfect_no_better.1)
             ));
         }
-        md.push_str(&series_means(ceilings, forecasts));
+        if ceilings.len() > 1 {
+            md.push_str(&series_means(ceilings, forecasts));
+        }
     }
     if args.out.is_some() {
         md.push_str("\n![the perfect forecast's Spearman per table](ceiling.png)\n");
