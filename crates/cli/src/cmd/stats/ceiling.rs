@@ -1,47 +1,17 @@
-//! `blurlab stats`: statistical helpers: `srange-quantile` (W of David's grouping) and
-//! `ceiling` (what a perfect forecast of vote tables can reach against their own noise).
+//! `blurlab stats ceiling`: what a perfect forecast of vote tables reaches against their own
+//! sampling noise (`analysis::ceiling`), with the forecasts actually made beside it, as
+//! Markdown, JSON and a figure.
 
 use std::path::{Path, PathBuf};
 
 use analysis::ceiling::{Estimate, GoalChance, TableCeiling};
 use analysis::votes::VoteTable;
 
-use super::BadInput;
-
-/// Arguments.
-#[derive(clap::Args)]
-pub struct Args {
-    #[command(subcommand)]
-    which: Which,
-}
-
-#[derive(clap::Subcommand)]
-enum Which {
-    /// W_{t,alpha}: the upper alpha quantile of the range of t independent standard normals
-    /// (studentized range, infinite degrees of freedom).
-    SrangeQuantile {
-        /// Number of stimuli (at least 2).
-        #[arg(long)]
-        t: usize,
-        /// Upper-tail probability, strictly between 0 and 1.
-        #[arg(long)]
-        alpha: f64,
-        /// Judges: also print R_c = (W sqrt(m t) + 1/2) / 2 and ceil(R_c).
-        #[arg(long)]
-        judges: Option<u32>,
-        /// Print JSON.
-        #[arg(long)]
-        json: bool,
-    },
-    /// What a perfect forecast of vote tables can reach: each table's totals fitted by
-    /// Thurstone qualities, replicate tables drawn from them, and the Spearman correlation of
-    /// the table's own order with each replicate (`analysis::ceiling`).
-    Ceiling(CeilingArgs),
-}
+use crate::cmd::BadInput;
 
 /// Arguments of `stats ceiling`.
 #[derive(clap::Args)]
-struct CeilingArgs {
+pub(super) struct CeilingArgs {
     /// Vote tables (`blurlab-votes/1`), e.g. analysis/reference/*.csv.
     #[arg(required = true)]
     tables: Vec<PathBuf>,
@@ -73,35 +43,6 @@ struct CeilingArgs {
     json: bool,
 }
 
-/// Runs the subcommand.
-pub fn run(args: &Args) -> anyhow::Result<()> {
-    match &args.which {
-        Which::Ceiling(c) => ceiling(c),
-        &Which::SrangeQuantile { t, alpha, judges, json } => {
-            let w = analysis::srange::srange_quantile(t, alpha).map_err(|e| BadInput(e.to_string()))?;
-            let critical = judges
-                .map(|m| analysis::grouping::critical_range(t, m, alpha))
-                .transpose()
-                .map_err(|e| BadInput(e.to_string()))?;
-            if json {
-                let mut value = serde_json::json!({ "t": t, "alpha": alpha, "w": w });
-                if let Some(c) = critical {
-                    value["judges"] = c.judges.into();
-                    value["rc"] = c.rc.into();
-                    value["ceil_rc"] = c.ceil_rc.into();
-                }
-                println!("{value}");
-            } else {
-                println!("W(t = {t}, alpha = {alpha}) = {w:.6}");
-                if let Some(c) = critical {
-                    println!("m = {}: R_c = {:.4}, ceil(R_c) = {}", c.judges, c.rc, c.ceil_rc);
-                }
-            }
-            Ok(())
-        }
-    }
-}
-
 /// Picks one estimate of a table's ceiling.
 type Pick = fn(&TableCeiling) -> &Estimate;
 
@@ -125,7 +66,8 @@ struct ForecastPoint {
     perfect_no_better: (Option<f64>, Option<f64>),
 }
 
-fn ceiling(args: &CeilingArgs) -> anyhow::Result<()> {
+/// Runs `stats ceiling`.
+pub(super) fn run(args: &CeilingArgs) -> anyhow::Result<()> {
     let finite = |name: &str, v: f64| {
         if (-1.0..=1.0).contains(&v) {
             Ok(())
@@ -264,7 +206,7 @@ fn forecast_point(file: &Path, tables: &[PathBuf], ceilings: &[TableCeiling]) ->
     let c = &ceilings[table];
     for row in json["stimuli"].as_array().ok_or_else(|| bad("no `stimuli`".into()))? {
         let label = row["label"].as_str().unwrap_or_default();
-        let at = super::predict::label_index(label, &c.labels);
+        let at = crate::cmd::predict::label_index(label, &c.labels);
         let votes = row["published"].as_f64();
         if at.is_none() || votes.is_none() || at.map(|i| c.votes[i]) != votes {
             return Err(bad(format!("its published votes for `{label}` are not {}'s", c.table)).into());
