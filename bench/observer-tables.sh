@@ -30,6 +30,11 @@
 #                                                # forecasts against their votes (VOTES: the
 #                                                # report's mono-3-interactions-fast-votes.csv),
 #                                                # and beside the votes' ceiling (stats ceiling)
+#   bench/observer-tables.sh plan                # how many judges the recorded forecasts'
+#                                                # test needs, if people at the fast speed
+#                                                # prefer as they did at the medium speed
+#                                                # (5.7.2): stats ceiling with 21 and 5 judges,
+#                                                # into $OUT/preregistered/planning/
 #   bench/observer-tables.sh ceiling             # what a perfect forecast of the five tables
 #                                                # reaches against their own noise (`blurlab
 #                                                # stats ceiling`), beside the frozen observer,
@@ -150,6 +155,17 @@ PY
         --judging pair
     done
     ;;
+  plan)
+    dir=$OUT/preregistered/mono-3-interactions-fast
+    forecasts=()
+    for observer in shutter flip sharp-pursuit sharp-pursuit-pair; do
+      forecasts+=(--forecast "$dir/$observer/predict.json")
+    done
+    for judges in 21 5; do
+      "$BIN" stats ceiling analysis/reference/thesis-5.7.2-mono-interactions.csv --judges-planned "$judges" \
+        "${forecasts[@]}" --replications 10000 --seed 1 --out "$OUT/preregistered/planning/judges-$judges"
+    done
+    ;;
   ceiling)
     tables=()
     for t in 5.6.3-mono-sampling-2afc 5.7.2-mono-interactions 6.5.2-stereo-sampling 6.5.2-stereo-shutter \
@@ -172,7 +188,7 @@ PY
     "$0" stereo "$ref"
     ;;
   *)
-    sed -n '2,43p' "$0"
+    sed -n '2,48p' "$0"
     exit 2
     ;;
 esac

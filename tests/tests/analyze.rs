@@ -94,6 +94,34 @@ fn the_ceiling_of_the_thesis_tables_and_the_forecasts_beside_it() {
     let again: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(again["tables"], json["tables"]);
 
+    // Run again, each forecast's own Spearman with the replicates: the frozen observer's
+    // 1.000 on 5.6.3 is the perfect forecast's order, so it meets the ceiling itself.
+    assert_eq!(points[0]["again"][0]["spearman"], json["tables"][0]["fitted"]["spearman"]);
+
+    // A forecast made before any votes, with a table as the hypothesis of what people prefer
+    // and a planned number of judges: the recorded pursuit-pair forecast for the fast test,
+    // if people there prefer as they did at the medium speed, with 5 judges.
+    let recorded = "analysis/observer/preregistered/mono-3-interactions-fast/sharp-pursuit-pair/predict.json";
+    let o = run(&[
+        "stats",
+        "ceiling",
+        interactions,
+        "--judges-planned",
+        "5",
+        "--forecast",
+        recorded,
+        "--replications",
+        "400",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let planned: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((&planned["tables"][0]["judges"], &planned["tables"][0]["replicate_judges"]), (&21.into(), &5.into()));
+    let f = &planned["forecasts"][0];
+    assert!(f["hypothetical"] == true && f["spearman"].is_null(), "{f}");
+    let again = f["again"][0]["spearman"]["mean"].as_f64().unwrap();
+    assert!(again > 0.8 && f["again"][0]["reaches_floor"].as_f64().unwrap() > 0.95, "{f}");
+
     // Bad input, each named.
     let bad = |extra: &[&str], needle: &str| {
         let o = run(&[&["stats", "ceiling"][..], extra].concat());
@@ -101,6 +129,11 @@ fn the_ceiling_of_the_thesis_tables_and_the_forecasts_beside_it() {
         assert!(stderr(&o).contains(needle), "expected `{needle}` in: {}", stderr(&o));
     };
     bad(&[sampling, "--forecast", forecasts[1]], "is not one of the tables given");
+    bad(&[sampling, interactions, "--forecast", recorded], "made without --votes, so it names no table");
+    bad(
+        &[sampling, "--forecast", recorded],
+        "9 stimuli, but analysis/reference/thesis-5.6.3-mono-sampling-2afc.csv has 5",
+    );
     bad(&[sampling, "--goal-mean", "1.5"], "--goal-mean 1.5: expected a Spearman correlation in [-1, 1]");
     bad(&[sampling, "--replications", "1"], "1 replications: at least 2 are needed");
     let no_judges = dir.path().join("no-judges.csv");

@@ -222,6 +222,9 @@ pub struct Estimate {
     /// Spearman per replicate (for the joint goal over several tables).
     #[serde(skip)]
     pub spearman_samples: Vec<f64>,
+    /// The replicate tables' totals (for other forecasts against the same replicates).
+    #[serde(skip)]
+    pub replicates: Vec<Vec<f64>>,
 }
 
 /// The ceiling of one table, estimated twice: from the fitted qualities (optimistic: their
@@ -238,8 +241,11 @@ pub struct TableCeiling {
     pub labels: Vec<String>,
     /// The table's totals.
     pub votes: Vec<f64>,
-    /// Judgements of each pair.
+    /// Judgements of each pair in the table.
     pub judges: u32,
+    /// Judgements of each pair in the replicate tables: the table's own, or those of a test
+    /// being planned.
+    pub replicate_judges: u32,
     /// Each `k` for which the `k` best stimuli won every judgement against the rest
     /// ([`certain_splits`]).
     pub certain_splits: Vec<usize>,
@@ -291,6 +297,7 @@ fn estimate(
 ) -> Estimate {
     let p = preferences(&truth);
     let (mut rho, mut tau, mut constant) = (Vec::with_capacity(replications), Vec::with_capacity(replications), 0);
+    let mut replicates = Vec::with_capacity(replications);
     for _ in 0..replications {
         let r = replicate(&p, judges, rng);
         each(&r);
@@ -302,6 +309,7 @@ fn estimate(
             rho.push(spearman(votes, &r));
             tau.push(kendall_tau_b(votes, &r));
         }
+        replicates.push(r);
     }
     Estimate {
         truth,
@@ -310,15 +318,37 @@ fn estimate(
         reaches_floor: rho.iter().filter(|&&r| r >= floor).count() as f64 / replications as f64,
         constant_replicates: constant,
         spearman_samples: rho,
+        replicates,
     }
+}
+
+/// A forecast's agreement with the replicate tables of an estimate: the distribution of its
+/// Spearman correlation (a replicate that ties every stimulus counts as 0) and the share
+/// reaching `floor`; what the forecast would meet if the test were run again. `None` for a
+/// forecast that ties every stimulus (no order to correlate).
+pub fn forecast_again(estimate: &Estimate, forecast: &[f64], floor: f64) -> Option<(Spread, f64)> {
+    if forecast.iter().all(|&v| v == forecast[0]) {
+        return None;
+    }
+    let rho: Vec<f64> = estimate
+        .replicates
+        .iter()
+        .map(|r| if r.iter().all(|&v| v == r[0]) { 0.0 } else { spearman(forecast, r) })
+        .collect();
+    let reaches = rho.iter().filter(|&&r| r >= floor).count() as f64 / rho.len() as f64;
+    Some((Spread::of(&rho), reaches))
 }
 
 /// The perfect forecast of `table` (with `judges` judgements per pair) against
 /// `replications` replicate tables for each estimate, with generator seed `mix(seed,
-/// totals)`; `floor` is the Spearman a forecast must reach on the table.
+/// totals)`; `floor` is the Spearman a forecast must reach on the table. The replicates have
+/// `replicate_judges` judgements per pair: `judges` to run the test again as it was, another
+/// number for a test being planned (the truth is still fitted with `judges`, and the fit
+/// noise measured at `judges`).
 pub fn table_ceiling(
     table: &VoteTable,
     judges: u32,
+    replicate_judges: u32,
     replications: usize,
     seed: u64,
     floor: f64,
@@ -335,29 +365,40 @@ pub fn table_ceiling(
     let quality = fit_qualities(&votes, judges).map_err(bad)?;
     let seed = study::seed::mix(seed, &table.votes.iter().map(|&v| u64::from(v)).collect::<Vec<_>>());
     let mut rng = Pcg64::seed_from_u64(seed);
+    if replicate_judges == 0 {
+        return Err(CeilingError::Setting("0 judges in the replicate tables: at least 1 is needed".into()));
+    }
     let (mut noise, mut fitted_replicates, mut unfittable) = (0.0, 0usize, 0usize);
-    let fitted =
-        estimate(&votes, quality.clone(), judges, replications, floor, &mut rng, |r| match fit_qualities(r, judges) {
-            Ok(q) if certain_splits(r, judges).is_empty() => {
-                noise += q.iter().zip(&quality).map(|(a, b)| (a - b).powi(2)).sum::<f64>();
-                fitted_replicates += 1;
-            }
-            _ => unfittable += 1,
-        });
+    let mut measure = |r: &[f64]| match fit_qualities(r, judges) {
+        Ok(q) if certain_splits(r, judges).is_empty() => {
+            noise += q.iter().zip(&quality).map(|(a, b)| (a - b).powi(2)).sum::<f64>();
+            fitted_replicates += 1;
+        }
+        _ => unfittable += 1,
+    };
+    // The fit noise is the table's (its judges); the test run again as it was measures it on
+    // the same replicates, a planned one on replicates of its own.
+    let fitted = if replicate_judges == judges {
+        estimate(&votes, quality.clone(), judges, replications, floor, &mut rng, &mut measure)
+    } else {
+        estimate(&votes, quality.clone(), judges, replications, floor, &mut rng, &mut measure);
+        estimate(&votes, quality.clone(), replicate_judges, replications, floor, &mut rng, |_| {})
+    };
     let spread: f64 = quality.iter().map(|q| q * q).sum();
     let shrink = if fitted_replicates == 0 || spread == 0.0 {
         0.0
     } else {
         (1.0 - noise / fitted_replicates as f64 / spread).max(0.0).sqrt()
     };
-    let shrunk =
-        estimate(&votes, quality.iter().map(|q| q * shrink).collect(), judges, replications, floor, &mut rng, |_| {});
+    let shrunk_truth = quality.iter().map(|q| q * shrink).collect();
+    let shrunk = estimate(&votes, shrunk_truth, replicate_judges, replications, floor, &mut rng, |_| {});
     Ok(TableCeiling {
         table: name,
         labels: table.labels.clone(),
         certain_splits: certain_splits(&votes, judges),
         votes,
         judges,
+        replicate_judges,
         replications,
         seed,
         fitted,
@@ -473,9 +514,9 @@ mod tests {
         assert!(fit_qualities(&[10.5, 9.5], 20).unwrap_err().contains("whole number"));
         assert!(fit_qualities(&[10.0], 20).unwrap_err().contains("at least 2"));
         assert!(fit_qualities(&[0.0, 0.0], 0).unwrap_err().contains("0 judges"));
-        let e = table_ceiling(&table(&[10, 10]), 10, 100, 1, 0.5).unwrap_err();
+        let e = table_ceiling(&table(&[10, 10]), 10, 10, 100, 1, 0.5).unwrap_err();
         assert!(e.to_string().contains("t.csv: every stimulus has the same votes"), "{e}");
-        let e = table_ceiling(&table(&[15, 5]), 20, 1, 1, 0.5).unwrap_err();
+        let e = table_ceiling(&table(&[15, 5]), 20, 20, 1, 1, 0.5).unwrap_err();
         assert_eq!(e, CeilingError::Setting("1 replications: at least 2 are needed".into()));
     }
 
@@ -483,25 +524,25 @@ mod tests {
     fn the_ceiling_falls_with_noise_and_is_reproducible() {
         // Well separated totals with many judges: a perfect forecast nearly always ranks the
         // replicate as the table; close totals with few judges: far from it.
-        let clear = table_ceiling(&table(&[280, 190, 100, 30]), 100, 2000, 7, 0.5).unwrap();
+        let clear = table_ceiling(&table(&[280, 190, 100, 30]), 100, 100, 2000, 7, 0.5).unwrap();
         assert!(clear.fitted.spearman.mean > 0.99 && clear.fitted.reaches_floor == 1.0, "{:?}", clear.fitted);
         assert!(clear.shrink > 0.98 && clear.shrunk.spearman.mean > 0.99, "{}", clear.shrink);
-        let close = table_ceiling(&table(&[8, 8, 7, 7]), 5, 2000, 7, 0.5).unwrap();
+        let close = table_ceiling(&table(&[8, 8, 7, 7]), 5, 5, 2000, 7, 0.5).unwrap();
         assert!(close.fitted.spearman.mean < 0.6 && close.fitted.reaches_floor < 0.7, "{:?}", close.fitted);
         assert!(close.fitted.spearman.q05 < 0.0 && close.fitted.spearman.q95 <= 1.0);
         // Its spread is mostly noise: the shrunk estimate is lower still.
         assert!(close.shrink < 0.5 && close.shrunk.spearman.mean < close.fitted.spearman.mean, "{}", close.shrink);
         // Two stimuli 1 JOD apart, 20 judges: the order flips when the better one wins at
         // most 10 of 20 at p = 0.75 (binomial: 0.01386), tying at 10 (0.00992, Spearman 0).
-        let two = table_ceiling(&table(&[15, 5]), 20, 100_000, 3, 0.5).unwrap();
+        let two = table_ceiling(&table(&[15, 5]), 20, 20, 100_000, 3, 0.5).unwrap();
         // (Tolerances: 6 and 5 binomial standard errors.)
         let flipped = two.fitted.spearman_samples.iter().filter(|&&r| r < 0.0).count() as f64 / 100_000.0;
         assert!((flipped - (0.013_864 - 0.009_922)).abs() < 0.0012, "{flipped}");
         assert!((two.fitted.constant_replicates as f64 / 100_000.0 - 0.009_922).abs() < 0.0016);
         // The same seed, the same replicates; another seed, others.
-        let again = table_ceiling(&table(&[8, 8, 7, 7]), 5, 2000, 7, 0.5).unwrap();
+        let again = table_ceiling(&table(&[8, 8, 7, 7]), 5, 5, 2000, 7, 0.5).unwrap();
         assert_eq!(again, close);
-        let other = table_ceiling(&table(&[8, 8, 7, 7]), 5, 2000, 8, 0.5).unwrap();
+        let other = table_ceiling(&table(&[8, 8, 7, 7]), 5, 5, 2000, 8, 0.5).unwrap();
         assert_ne!(other.fitted.spearman_samples, close.fitted.spearman_samples);
     }
 
@@ -522,7 +563,7 @@ mod tests {
             if !certain_splits(&votes, 10).is_empty() {
                 continue;
             }
-            let c = table_ceiling(&table(&votes.iter().map(|&v| v as u32).collect::<Vec<_>>()), 10, 300, 5, 0.5);
+            let c = table_ceiling(&table(&votes.iter().map(|&v| v as u32).collect::<Vec<_>>()), 10, 10, 300, 5, 0.5);
             let Ok(c) = c else { continue };
             fitted += spread(&c.fitted.truth);
             shrunk += spread(&c.shrunk.truth);
@@ -538,8 +579,32 @@ mod tests {
     }
 
     #[test]
+    fn a_forecast_run_again_and_a_planned_test_with_more_judges() {
+        let votes = [10, 8, 7, 5];
+        let c = table_ceiling(&table(&votes), 5, 5, 3000, 7, 0.5).unwrap();
+        // The perfect forecast against the same replicates is the ceiling itself; the reverse
+        // order its mirror image; a forecast that ties everything has no order.
+        let perfect: Vec<f64> = votes.iter().map(|&v| f64::from(v)).collect();
+        let (again, reaches) = forecast_again(&c.fitted, &perfect, 0.5).unwrap();
+        assert_eq!((again, reaches), (c.fitted.spearman, c.fitted.reaches_floor));
+        let reversed: Vec<f64> = perfect.iter().map(|v| -v).collect();
+        let (mirror, _) = forecast_again(&c.fitted, &reversed, 0.5).unwrap();
+        assert!((mirror.mean + again.mean).abs() < 1e-12, "{mirror:?} {again:?}");
+        assert!(forecast_again(&c.fitted, &[1.0; 4], 0.5).is_none());
+        // Twenty times the judges: the same truth, far less noise, so a higher ceiling; the
+        // fit noise (the shrink) is still the table's.
+        let planned = table_ceiling(&table(&votes), 5, 100, 3000, 7, 0.5).unwrap();
+        assert_eq!((planned.replicate_judges, planned.fitted.truth.clone()), (100, c.fitted.truth.clone()));
+        assert_eq!(planned.shrink, c.shrink);
+        assert!(planned.fitted.spearman.mean > c.fitted.spearman.mean + 0.2, "{:?}", planned.fitted.spearman);
+        assert_eq!(planned.fitted.replicates[0].iter().sum::<f64>(), 100.0 * 6.0);
+        let e = table_ceiling(&table(&votes), 5, 0, 10, 7, 0.5).unwrap_err();
+        assert!(e.to_string().contains("0 judges in the replicate tables"), "{e}");
+    }
+
+    #[test]
     fn the_goal_over_several_tables_counts_whole_replicate_studies() {
-        let mut a = table_ceiling(&table(&[15, 5]), 20, 4, 1, 0.5).unwrap().fitted;
+        let mut a = table_ceiling(&table(&[15, 5]), 20, 20, 4, 1, 0.5).unwrap().fitted;
         let mut b = a.clone();
         a.spearman_samples = vec![1.0, 1.0, 0.4, 0.9];
         b.spearman_samples = vec![0.7, 0.5, 1.0, 0.2];

@@ -30,10 +30,16 @@ pub(super) struct CeilingArgs {
     /// The goal's lowest Spearman on any table.
     #[arg(long, default_value_t = 0.5)]
     floor: f64,
-    /// Forecasts (`predict.json` of `blurlab predict --votes`) to set beside the ceiling;
-    /// each must have been compared with one of the tables.
+    /// Forecasts (`predict.json` of `blurlab predict`) to set beside the ceiling. One made
+    /// with `--votes` must have been compared with one of the tables; one made without (before
+    /// any votes existed) is taken with the only table given as the hypothesis of what people
+    /// prefer, its stimuli matched by their factor levels.
     #[arg(long)]
     forecast: Vec<PathBuf>,
+    /// Judgements of each pair in the replicate tables, for a test being planned (default:
+    /// each table's own): the same truth, as many judges as the planned test will have.
+    #[arg(long)]
+    judges_planned: Option<u32>,
     /// Folder for ceiling.md, ceiling.json and ceiling.png/.svg (default: the Markdown on
     /// standard output).
     #[arg(long)]
@@ -59,11 +65,27 @@ struct ForecastPoint {
     observer: String,
     /// Index of the table it was compared with.
     table: usize,
-    /// Its Spearman correlation with the table (none where its forecast ties every stimulus).
+    /// Its Spearman correlation with the table (none where its forecast ties every stimulus,
+    /// or where it was made before any votes and only takes the table as a hypothesis).
     spearman: Option<f64>,
+    /// Whether it was made before any votes (the table is a hypothesis, not its comparison).
+    hypothetical: bool,
     /// The share of replicates on which the perfect forecast does no better, from the
     /// fitted and from the shrunk qualities.
     perfect_no_better: (Option<f64>, Option<f64>),
+    /// Its Spearman with the replicate tables, the test run again (or as planned): from the
+    /// fitted and from the shrunk qualities, each the distribution and the share reaching the
+    /// floor (none where it ties every stimulus).
+    again: (Option<Again>, Option<Again>),
+}
+
+/// A forecast's Spearman over replicate tables.
+#[derive(Clone, Copy, serde::Serialize)]
+struct Again {
+    /// The distribution.
+    spearman: analysis::ceiling::Spread,
+    /// The share reaching the floor.
+    reaches_floor: f64,
 }
 
 /// Runs `stats ceiling`.
@@ -92,8 +114,15 @@ pub(super) fn run(args: &CeilingArgs) -> anyhow::Result<()> {
             }
         };
         ceilings.push(
-            analysis::ceiling::table_ceiling(&table, judges, args.replications, args.seed, args.floor)
-                .map_err(|e| BadInput(e.to_string()))?,
+            analysis::ceiling::table_ceiling(
+                &table,
+                judges,
+                args.judges_planned.unwrap_or(judges),
+                args.replications,
+                args.seed,
+                args.floor,
+            )
+            .map_err(|e| BadInput(e.to_string()))?,
         );
         progress.inc(1);
     }
@@ -102,8 +131,11 @@ pub(super) fn run(args: &CeilingArgs) -> anyhow::Result<()> {
         analysis::ceiling::goal_chance(&ceilings.iter().map(pick).collect::<Vec<_>>(), args.goal_mean, args.floor)
     };
     let goals = (goal(ESTIMATES[0].1), goal(ESTIMATES[1].1));
-    let forecasts =
-        args.forecast.iter().map(|f| forecast_point(f, &args.tables, &ceilings)).collect::<anyhow::Result<Vec<_>>>()?;
+    let forecasts = args
+        .forecast
+        .iter()
+        .map(|f| forecast_point(f, &args.tables, &ceilings, args.floor))
+        .collect::<anyhow::Result<Vec<_>>>()?;
     let command: String = std::env::args().collect::<Vec<_>>().join(" ");
     let json = serde_json::json!({
         "format": "blurlab-ceiling/1",
@@ -181,37 +213,66 @@ fn same_file(a: &Path, b: &Path) -> bool {
 }
 
 /// A forecast's `predict.json`, matched with the table it was compared with.
-fn forecast_point(file: &Path, tables: &[PathBuf], ceilings: &[TableCeiling]) -> anyhow::Result<ForecastPoint> {
+fn forecast_point(
+    file: &Path,
+    tables: &[PathBuf],
+    ceilings: &[TableCeiling],
+    floor: f64,
+) -> anyhow::Result<ForecastPoint> {
     let bad = |what: String| BadInput(format!("{}: {what}", file.display()));
     let text = std::fs::read(file).map_err(|e| bad(format!("cannot read: {e}")))?;
     let json: serde_json::Value = serde_json::from_slice(&text).map_err(|e| bad(format!("not JSON: {e}")))?;
     if json["format"] != "blurlab-predict/1" {
         return Err(bad("not a forecast (expected format `blurlab-predict/1`)".into()).into());
     }
-    let published = json["published_table"]
-        .as_str()
-        .ok_or_else(|| bad("no `published_table`: it was made without --votes".into()))?;
-    let table = tables
-        .iter()
-        .position(|t| same_file(t, Path::new(published)))
-        .ok_or_else(|| bad(format!("compared with `{published}`, which is not one of the tables given")))?;
-    let agreement = json["agreement"].as_object().ok_or_else(|| bad("no `agreement`".into()))?;
-    // `null`: the forecast ties every stimulus, so it has no order to correlate.
-    let spearman = match agreement.get("spearman") {
-        Some(serde_json::Value::Null) => None,
-        Some(v) => Some(v.as_f64().ok_or_else(|| bad("`agreement.spearman` is not a number".into()))?),
-        None => return Err(bad("no `agreement.spearman`".into()).into()),
+    let (table, spearman, hypothetical) = match json["published_table"].as_str() {
+        Some(published) => {
+            let table = tables
+                .iter()
+                .position(|t| same_file(t, Path::new(published)))
+                .ok_or_else(|| bad(format!("compared with `{published}`, which is not one of the tables given")))?;
+            let agreement = json["agreement"].as_object().ok_or_else(|| bad("no `agreement`".into()))?;
+            // `null`: the forecast ties every stimulus, so it has no order to correlate.
+            let spearman = match agreement.get("spearman") {
+                Some(serde_json::Value::Null) => None,
+                Some(v) => Some(v.as_f64().ok_or_else(|| bad("`agreement.spearman` is not a number".into()))?),
+                None => return Err(bad("no `agreement.spearman`".into()).into()),
+            };
+            (table, spearman, false)
+        }
+        None if tables.len() == 1 => (0, None, true),
+        None => {
+            return Err(bad(format!(
+                "made without --votes, so it names no table; with {} tables given it is not clear which one is the hypothesis (give one)",
+                tables.len()
+            ))
+            .into());
+        }
     };
-    // The votes it was compared with must be the table's as read now.
+    // Its stimuli must be the table's (by factor levels); the votes it was compared with
+    // must be the table's as read now.
     let c = &ceilings[table];
-    for row in json["stimuli"].as_array().ok_or_else(|| bad("no `stimuli`".into()))? {
+    let rows = json["stimuli"].as_array().ok_or_else(|| bad("no `stimuli`".into()))?;
+    if rows.len() != c.labels.len() {
+        return Err(bad(format!("{} stimuli, but {} has {}", rows.len(), c.table, c.labels.len())).into());
+    }
+    let mut forecast = vec![f64::NAN; c.labels.len()];
+    for row in rows {
         let label = row["label"].as_str().unwrap_or_default();
-        let at = crate::cmd::predict::label_index(label, &c.labels);
-        let votes = row["published"].as_f64();
-        if at.is_none() || votes.is_none() || at.map(|i| c.votes[i]) != votes {
+        let at = crate::cmd::predict::label_index(label, &c.labels)
+            .ok_or_else(|| bad(format!("stimulus `{label}` is not one of {}'s", c.table)))?;
+        if !hypothetical && row["published"].as_f64() != Some(c.votes[at]) {
             return Err(bad(format!("its published votes for `{label}` are not {}'s", c.table)).into());
         }
+        forecast[at] = row["votes"].as_f64().ok_or_else(|| bad(format!("`{label}`: no expected `votes`")))?;
     }
+    if forecast.iter().any(|v| v.is_nan()) {
+        return Err(bad(format!("two of its stimuli are the same one of {}'s", c.table)).into());
+    }
+    let again = |e: &Estimate| {
+        analysis::ceiling::forecast_again(e, &forecast, floor)
+            .map(|(spearman, reaches_floor)| Again { spearman, reaches_floor })
+    };
     let observer = match json["observer"].as_str() {
         Some("flip") => "FLIP".to_owned(),
         Some(o) => {
@@ -235,7 +296,9 @@ fn forecast_point(file: &Path, tables: &[PathBuf], ceilings: &[TableCeiling]) ->
         observer,
         table,
         spearman,
+        hypothetical,
         perfect_no_better: (no_better(&c.fitted), no_better(&c.shrunk)),
+        again: (again(&c.fitted), again(&c.shrunk)),
     })
 }
 
@@ -255,10 +318,18 @@ fn ceiling_markdown(
          fitted qualities carry the table's noise as well as its signal, so their spread is larger than the \
          truth's and this estimate is optimistic. A second estimate draws {} more from the qualities shrunk \
          towards their mean by the noise the replicates' own fits show (the factor `shrink`: the truth's spread \
-         estimated as the fit's less that noise); the truth's ceiling is expected between the two.\n\n\
+         estimated as the fit's less that noise); the truth's ceiling is expected between the two.{}\n\n\
          | table | stimuli | judges | fitted qualities (JOD) | fitted: Spearman mean (5-95 %) | reaches {} | shrink | shrunk: Spearman mean (5-95 %) | reaches {} |\n\
          | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: |\n",
-        args.replications, args.seed, args.replications, args.floor, args.floor
+        args.replications,
+        args.seed,
+        args.replications,
+        args.judges_planned.map_or(String::new(), |m| format!(
+            " The replicate tables have {m} judgements of each pair (`--judges-planned`): a test as planned, \
+             with the truth fitted from each table's own judges."
+        )),
+        args.floor,
+        args.floor
     );
     let spread = |e: &Estimate| format!("{:.3} ({:.3} to {:.3})", e.spearman.mean, e.spearman.q05, e.spearman.q95);
     for c in ceilings {
@@ -327,21 +398,41 @@ fn ceiling_markdown(
     }
     if !forecasts.is_empty() {
         md.push_str(
-            "\n## Forecasts beside the ceiling\n\nThe last two columns: the share of replicate tables on which the \
-             perfect forecast does no better than this forecast did on the published one.\n\n\
-             | forecast | observer | table | Spearman | perfect no better (fitted) | (shrunk) |\n\
-             | --- | --- | --- | ---: | ---: | ---: |\n",
+            "\n## Forecasts beside the ceiling\n\n`perfect no better`: the share of replicate tables on which the \
+             perfect forecast does no better than this forecast did on the table (from the fitted and the shrunk \
+             qualities). `run again`: this forecast's own Spearman with the replicate tables, the test run again \
+             with the replicates' judges: mean (5-95 %) and the share reaching the floor.\n\n\
+             | forecast | observer | table | Spearman | perfect no better (fitted) | (shrunk) | run again (fitted) | reaches floor | run again (shrunk) | reaches floor |\n\
+             | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
         );
         let share = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{:.1} %", 100.0 * v));
+        let again = |a: &Option<Again>| match a {
+            Some(a) => (
+                format!("{:.3} ({:.3} to {:.3})", a.spearman.mean, a.spearman.q05, a.spearman.q95),
+                share(Some(a.reaches_floor)),
+            ),
+            None => ("every stimulus tied".to_owned(), "-".to_owned()),
+        };
         for f in forecasts {
+            let (fitted, fitted_floor) = again(&f.again.0);
+            let (shrunk, shrunk_floor) = again(&f.again.1);
+            let spearman = match (f.spearman, f.hypothetical) {
+                (_, true) => "- (made before any votes)".to_owned(),
+                (Some(s), false) => format!("{s:.3}"),
+                (None, false) => "undefined: every stimulus tied".to_owned(),
+            };
             md.push_str(&format!(
-                "| `{}` | {} | {} | {} | {} | {} |\n",
+                "| `{}` | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
                 f.file,
                 f.observer,
                 short_name(Path::new(&ceilings[f.table].table)),
-                f.spearman.map_or("undefined: every stimulus tied".to_owned(), |s| format!("{s:.3}")),
+                spearman,
                 share(f.perfect_no_better.0),
-                share(f.perfect_no_better.1)
+                share(f.perfect_no_better.1),
+                fitted,
+                fitted_floor,
+                shrunk,
+                shrunk_floor
             ));
         }
         if ceilings.len() > 1 {
