@@ -350,6 +350,10 @@ const POINT_RADIUS: u32 = 5;
 /// A distribution as [`CeilingFigure`] marks it: (5 %, median, mean, 95 %).
 pub type SpreadMarks = (f64, f64, f64, f64);
 
+/// A forecast as [`CeilingFigure`] marks it: the table's index, its Spearman, and the 5-95 %
+/// range where the Spearman is a mean over replicate tables.
+pub type ForecastMark = (usize, f64, Option<(f64, f64)>);
+
 /// What a perfect forecast of each vote table reaches against the table's own noise
 /// (`crate::ceiling`): per table and estimate, the 5-95 % range of its Spearman correlation
 /// over replicate tables, a tick at the median and a dot at the mean; the forecasts actually
@@ -362,15 +366,17 @@ pub struct CeilingFigure {
     pub tables: Vec<String>,
     /// Estimates: a name and per table the perfect forecast's Spearman.
     pub perfect: Vec<(String, Vec<SpreadMarks>)>,
-    /// Forecasts: a name and its Spearman on some tables (index into `tables`).
-    pub forecasts: Vec<(String, Vec<(usize, f64)>)>,
+    /// Forecasts: a name and, on some tables (index into `tables`), its Spearman: as measured
+    /// (no range), or its mean over replicate tables with their 5-95 % range (a forecast made
+    /// before any votes, against a hypothesis).
+    pub forecasts: Vec<(String, Vec<ForecastMark>)>,
     /// Dashed reference lines: a label and its Spearman (e.g. the goal's floor and mean).
     pub lines: Vec<(String, f64)>,
 }
 
 impl Figure for CeilingFigure {
     fn size(&self) -> (u32, u32) {
-        (240 + 160 * self.tables.len() as u32, 600)
+        ((240 + 160 * self.tables.len() as u32).max(720), 600)
     }
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         let n = self.tables.len();
@@ -378,7 +384,7 @@ impl Figure for CeilingFigure {
             .perfect
             .iter()
             .flat_map(|(_, v)| v.iter().map(|p| p.0))
-            .chain(self.forecasts.iter().flat_map(|(_, v)| v.iter().map(|p| p.1)))
+            .chain(self.forecasts.iter().flat_map(|(_, v)| v.iter().map(|p| p.2.map_or(p.1, |r| r.0))))
             .fold(0.0f64, f64::min);
         // Room below the lowest point for the legend, so that it covers no point.
         let data_bottom = (low * 10.0).floor() / 10.0 - 0.1;
@@ -458,8 +464,14 @@ impl Figure for CeilingFigure {
             // The group colours but blue (the estimates') and grey (the lines').
             let c = group_colour([1, 2, 4, 5, 6, 7][f % 6]);
             let dx = 0.2 + 0.07 * f as f64;
+            for &(k, _, range) in points {
+                if let Some((lo, hi)) = range {
+                    let x = k as f64 + dx;
+                    chart.draw_series([PathElement::new(vec![(x, lo), (x, hi)], c.stroke_width(1))]).map_err(err)?;
+                }
+            }
             chart
-                .draw_series(points.iter().map(|&(k, r)| Cross::new((k as f64 + dx, r), 6, c.stroke_width(3))))
+                .draw_series(points.iter().map(|&(k, r, _)| Cross::new((k as f64 + dx, r), 6, c.stroke_width(3))))
                 .map_err(err)?
                 .label(name.clone())
                 .legend(move |(x, y)| Cross::new((x + 8, y), 6, c.stroke_width(3)));

@@ -158,12 +158,21 @@ pub(super) fn run(args: &CeilingArgs) -> anyhow::Result<()> {
                 study::fsio::write_atomic(&path, text.as_bytes())
                     .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
             }
-            let mut series: Vec<(String, Vec<(usize, f64)>)> = Vec::new();
+            // Each forecast as measured; one made before any votes as its mean over the
+            // replicates (fitted qualities) with their range.
+            let mut series: Vec<(String, Vec<analysis::plots::ForecastMark>)> = Vec::new();
             for f in &forecasts {
-                let Some(spearman) = f.spearman else { continue };
-                match series.iter_mut().find(|(name, _)| *name == f.observer) {
-                    Some((_, points)) => points.push((f.table, spearman)),
-                    None => series.push((f.observer.clone(), vec![(f.table, spearman)])),
+                let (name, mark) = match (f.hypothetical, f.spearman, f.again.0) {
+                    (false, Some(s), _) => (f.observer.clone(), (f.table, s, None)),
+                    (true, _, Some(a)) => (
+                        format!("{}: if run (mean, 5-95 %)", f.observer),
+                        (f.table, a.spearman.mean, Some((a.spearman.q05, a.spearman.q95))),
+                    ),
+                    _ => continue,
+                };
+                match series.iter_mut().find(|(n, _)| *n == name) {
+                    Some((_, points)) => points.push(mark),
+                    None => series.push((name, vec![mark])),
                 }
             }
             let figure = analysis::plots::CeilingFigure {
