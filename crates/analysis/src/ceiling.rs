@@ -9,8 +9,9 @@
 //! 1. [`fit_qualities`]: Thurstone case V qualities in JOD (`P(i over j) = Phi(z75 (q_i -
 //!    q_j))`, the forecasts' own choice model) whose expected votes equal the table's totals,
 //!    the only statistics a published table gives. The expected votes `m sum_j P(i over j)`
-//!    are the gradient of a concave function of `q`, so the solution is unique up to a
-//!    constant (fixed by `sum q = 0`); Newton's method finds it.
+//!    are, up to a constant vector, the gradient of a convex function of `q` (a sum over pairs
+//!    of an antiderivative of `Phi`), strictly convex but along `q + c`, so the solution is
+//!    unique up to that constant (fixed by `sum q = 0`); Newton's method finds it.
 //! 2. Replicate tables drawn from those qualities: each pair's `m` judgements binomial, from a
 //!    recorded seed.
 //! 3. The perfect forecast, the fitted model's expected votes, ranks the stimuli exactly as
