@@ -463,7 +463,7 @@ pub fn markdown(report: &Report) -> String {
                     );
                     let _ = writeln!(
                         s,
-                        "The vote totals as a table: [`{0}-votes.csv`]({0}-votes.csv) (`blurlab-votes/1`, m = {1}, alpha = {2}): `blurlab analyze --votes` groups it again, `blurlab predict --votes` compares a forecast with it.\n",
+                        "The vote totals as a table: [`{0}-votes.csv`]({0}-votes.csv) (`blurlab-votes/1`, m = {1}, alpha = {2}): `blurlab analyze --votes` groups it again, `blurlab predict --votes` compares a forecast with it, and `blurlab stats ceiling` says how far the same test run again would agree with its order.\n",
                         e.name, c.judges, c.alpha
                     );
                 }
