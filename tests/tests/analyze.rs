@@ -135,7 +135,7 @@ fn the_ceiling_of_the_thesis_tables_and_the_forecasts_beside_it() {
         "9 stimuli, but analysis/reference/thesis-5.6.3-mono-sampling-2afc.csv has 5",
     );
     bad(&[sampling, "--goal-mean", "1.5"], "--goal-mean 1.5: expected a Spearman correlation in [-1, 1]");
-    bad(&[sampling, "--replications", "1"], "1 replications: at least 2 are needed");
+    bad(&[sampling, "--replications", "1"], "1 replications: expected 2 to 1000000");
     let no_judges = dir.path().join("no-judges.csv");
     std::fs::write(&no_judges, "# blurlab-votes/1\nstimulus,votes\nA,15\nB,5\n").unwrap();
     bad(&[no_judges.to_str().unwrap()], "no-judges.csv: no `judges` header; give --judges");

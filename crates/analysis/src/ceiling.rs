@@ -36,6 +36,10 @@ use serde::Serialize;
 use crate::votes::VoteTable;
 use study::stats::{Z75, jod_preference, kendall_tau_b, spearman};
 
+/// The most replicate tables per estimate: each is kept (for other forecasts against the same
+/// replicates), so a million tables of nine stimuli take about 150 MB for the two estimates.
+pub const MAX_REPLICATIONS: usize = 1_000_000;
+
 /// The bound on a fitted quality's magnitude, in JOD, while the fit runs.
 pub const QUALITY_CAP: f64 = 10.0;
 
@@ -356,8 +360,10 @@ pub fn table_ceiling(
 ) -> Result<TableCeiling, CeilingError> {
     let name = table.path.display().to_string();
     let bad = |message: String| CeilingError::Table { table: name.clone(), message };
-    if replications < 2 {
-        return Err(CeilingError::Setting(format!("{replications} replications: at least 2 are needed")));
+    if !(2..=MAX_REPLICATIONS).contains(&replications) {
+        return Err(CeilingError::Setting(format!(
+            "{replications} replications: expected 2 to {MAX_REPLICATIONS} (each estimate keeps its replicate tables)"
+        )));
     }
     let votes: Vec<f64> = table.votes.iter().map(|&v| f64::from(v)).collect();
     if votes.iter().all(|&v| v == votes[0]) {
@@ -518,7 +524,9 @@ mod tests {
         let e = table_ceiling(&table(&[10, 10]), 10, 10, 100, 1, 0.5).unwrap_err();
         assert!(e.to_string().contains("t.csv: every stimulus has the same votes"), "{e}");
         let e = table_ceiling(&table(&[15, 5]), 20, 20, 1, 1, 0.5).unwrap_err();
-        assert_eq!(e, CeilingError::Setting("1 replications: at least 2 are needed".into()));
+        assert!(e.to_string().starts_with("1 replications: expected 2 to 1000000"), "{e}");
+        let e = table_ceiling(&table(&[15, 5]), 20, 20, MAX_REPLICATIONS + 1, 1, 0.5).unwrap_err();
+        assert!(e.to_string().contains("1000001 replications"), "{e}");
     }
 
     #[test]
