@@ -289,39 +289,40 @@ fn preferences(q: &[f64]) -> Vec<Vec<f64>> {
     q.iter().map(|&a| q.iter().map(|&b| jod_preference(a, b)).collect()).collect()
 }
 
-/// The perfect forecast (the table's own order) against `replications` tables drawn from
-/// `truth`; each replicate also handed to `each`.
-fn estimate(
-    votes: &[f64],
-    truth: Vec<f64>,
-    judges: u32,
-    replications: usize,
-    floor: f64,
-    rng: &mut Pcg64,
-    mut each: impl FnMut(&[f64]),
-) -> Estimate {
-    let p = preferences(&truth);
-    let (mut rho, mut tau, mut constant) = (Vec::with_capacity(replications), Vec::with_capacity(replications), 0);
-    let mut replicates = Vec::with_capacity(replications);
-    for _ in 0..replications {
-        let r = replicate(&p, judges, rng);
-        each(&r);
-        if r.iter().all(|&v| v == r[0]) {
-            constant += 1;
-            rho.push(0.0);
-            tau.push(0.0);
-        } else {
-            rho.push(spearman(votes, &r));
-            tau.push(kendall_tau_b(votes, &r));
-        }
-        replicates.push(r);
-    }
+/// `replications` replicate tables drawn from `truth` with `judges` judgements per pair.
+fn replicates(truth: &[f64], judges: u32, replications: usize, rng: &mut Pcg64) -> Vec<Vec<f64>> {
+    let p = preferences(truth);
+    (0..replications).map(|_| replicate(&p, judges, rng)).collect()
+}
+
+/// Whether every stimulus has the same total (no order to correlate).
+fn all_tied(v: &[f64]) -> bool {
+    v.iter().all(|&x| x == v[0])
+}
+
+/// Spearman's correlation of `forecast` with each replicate, a replicate that ties every
+/// stimulus counted as 0.
+fn spearman_with(forecast: &[f64], replicates: &[Vec<f64>]) -> Vec<f64> {
+    replicates.iter().map(|r| if all_tied(r) { 0.0 } else { spearman(forecast, r) }).collect()
+}
+
+/// The share of `rho` at or above `floor`.
+fn share_reaching(rho: &[f64], floor: f64) -> f64 {
+    rho.iter().filter(|&&r| r >= floor).count() as f64 / rho.len() as f64
+}
+
+/// The perfect forecast (the table's own order, `votes`) against `replications` tables drawn
+/// from `truth`.
+fn estimate(votes: &[f64], truth: Vec<f64>, judges: u32, replications: usize, floor: f64, rng: &mut Pcg64) -> Estimate {
+    let replicates = replicates(&truth, judges, replications, rng);
+    let rho = spearman_with(votes, &replicates);
+    let tau: Vec<f64> = replicates.iter().map(|r| if all_tied(r) { 0.0 } else { kendall_tau_b(votes, r) }).collect();
     Estimate {
         truth,
         spearman: Spread::of(&rho),
         kendall: Spread::of(&tau),
-        reaches_floor: rho.iter().filter(|&&r| r >= floor).count() as f64 / replications as f64,
-        constant_replicates: constant,
+        reaches_floor: share_reaching(&rho, floor),
+        constant_replicates: replicates.iter().filter(|r| all_tied(r)).count(),
         spearman_samples: rho,
         replicates,
     }
@@ -332,16 +333,11 @@ fn estimate(
 /// reaching `floor`; what the forecast would meet if the test were run again. `None` for a
 /// forecast that ties every stimulus (no order to correlate).
 pub fn forecast_again(estimate: &Estimate, forecast: &[f64], floor: f64) -> Option<(Spread, f64)> {
-    if forecast.iter().all(|&v| v == forecast[0]) {
+    if all_tied(forecast) {
         return None;
     }
-    let rho: Vec<f64> = estimate
-        .replicates
-        .iter()
-        .map(|r| if r.iter().all(|&v| v == r[0]) { 0.0 } else { spearman(forecast, r) })
-        .collect();
-    let reaches = rho.iter().filter(|&&r| r >= floor).count() as f64 / rho.len() as f64;
-    Some((Spread::of(&rho), reaches))
+    let rho = spearman_with(forecast, &estimate.replicates);
+    Some((Spread::of(&rho), share_reaching(&rho, floor)))
 }
 
 /// The perfect forecast of `table` (with `judges` judgements per pair) against
@@ -375,22 +371,24 @@ pub fn table_ceiling(
     if replicate_judges == 0 {
         return Err(CeilingError::Setting("0 judges in the replicate tables: at least 1 is needed".into()));
     }
-    let (mut noise, mut fitted_replicates, mut unfittable) = (0.0, 0usize, 0usize);
-    let mut measure = |r: &[f64]| match fit_qualities(r, judges) {
-        Ok(q) if certain_splits(r, judges).is_empty() => {
-            noise += q.iter().zip(&quality).map(|(a, b)| (a - b).powi(2)).sum::<f64>();
-            fitted_replicates += 1;
-        }
-        _ => unfittable += 1,
-    };
-    // The fit noise is the table's (its judges); the test run again as it was measures it on
-    // the same replicates, a planned one on replicates of its own.
-    let fitted = if replicate_judges == judges {
-        estimate(&votes, quality.clone(), judges, replications, floor, &mut rng, &mut measure)
+    // The fit noise is the table's (its judges): the test run again as it was measures it on
+    // its own replicates, a planned one on replicates drawn at the table's judges first.
+    let (fitted, own_noise_tables) = if replicate_judges == judges {
+        (estimate(&votes, quality.clone(), judges, replications, floor, &mut rng), None)
     } else {
-        estimate(&votes, quality.clone(), judges, replications, floor, &mut rng, &mut measure);
-        estimate(&votes, quality.clone(), replicate_judges, replications, floor, &mut rng, |_| {})
+        let tables = replicates(&quality, judges, replications, &mut rng);
+        (estimate(&votes, quality.clone(), replicate_judges, replications, floor, &mut rng), Some(tables))
     };
+    let (mut noise, mut fitted_replicates, mut unfittable) = (0.0, 0usize, 0usize);
+    for r in own_noise_tables.as_ref().unwrap_or(&fitted.replicates) {
+        match fit_qualities(r, judges) {
+            Ok(q) if certain_splits(r, judges).is_empty() => {
+                noise += q.iter().zip(&quality).map(|(a, b)| (a - b).powi(2)).sum::<f64>();
+                fitted_replicates += 1;
+            }
+            _ => unfittable += 1,
+        }
+    }
     let spread: f64 = quality.iter().map(|q| q * q).sum();
     let shrink = if fitted_replicates == 0 || spread == 0.0 {
         0.0
@@ -398,7 +396,7 @@ pub fn table_ceiling(
         (1.0 - noise / fitted_replicates as f64 / spread).max(0.0).sqrt()
     };
     let shrunk_truth = quality.iter().map(|q| q * shrink).collect();
-    let shrunk = estimate(&votes, shrunk_truth, replicate_judges, replications, floor, &mut rng, |_| {});
+    let shrunk = estimate(&votes, shrunk_truth, replicate_judges, replications, floor, &mut rng);
     Ok(TableCeiling {
         table: name,
         labels: table.labels.clone(),

@@ -347,6 +347,28 @@ impl Figure for ForecastScatter {
 
 const POINT_RADIUS: u32 = 5;
 
+/// Draws a dashed horizontal line at `y` across `x` (from, to): a dash of `dash.0` every
+/// `dash.1`, the last one cut at the end.
+fn dashed_line<DB: DrawingBackend>(
+    chart: &mut ChartContext<
+        '_,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    y: f64,
+    x: (f64, f64),
+    dash: (f64, f64),
+    style: ShapeStyle,
+) -> Result<(), String> {
+    let mut from = x.0;
+    while from < x.1 {
+        let to = (from + dash.0).min(x.1);
+        chart.draw_series([PathElement::new(vec![(from, y), (to, y)], style)]).map_err(err)?;
+        from += dash.1;
+    }
+    Ok(())
+}
+
 /// A distribution as [`CeilingFigure`] marks it: (5 %, median, mean, 95 %).
 pub type SpreadMarks = (f64, f64, f64, f64);
 
@@ -419,14 +441,11 @@ impl Figure for CeilingFigure {
             .draw()
             .map_err(err)?;
         for (name, y) in &self.lines {
-            let style = BLACK.mix(0.45).stroke_width(1);
-            let dashes: Vec<PathElement<(f64, f64)>> = (0..(n * 12).max(1))
-                .map(|k| {
-                    let x0 = -0.6 + k as f64 * (n as f64 + 0.2) / (n * 12).max(1) as f64;
-                    PathElement::new(vec![(x0, *y), (x0 + 0.05, *y)], style)
-                })
-                .collect();
-            chart.draw_series(dashes).map_err(err)?;
+            // Twelve dashes per table, the last one whole.
+            let dashes = (n * 12).max(1) as f64;
+            let period = (n as f64 + 0.2) / dashes;
+            let end = -0.6 + (dashes - 0.25) * period;
+            dashed_line(&mut chart, *y, (-0.6, end), (0.05, period), BLACK.mix(0.45).stroke_width(1))?;
             chart
                 .draw_series([Text::new(
                     name.clone(),
@@ -1039,18 +1058,7 @@ impl Figure for ScreeningFigure {
                 .map_err(err)?;
         }
         if self.threshold.is_finite() {
-            let red = RGBColor(204, 0, 0);
-            let mut x = x_range.0;
-            while x < x_range.1 {
-                let end = (x + 0.25).min(x_range.1);
-                chart
-                    .draw_series([PathElement::new(
-                        vec![(x, self.threshold), (end, self.threshold)],
-                        red.stroke_width(2),
-                    )])
-                    .map_err(err)?;
-                x += 0.4;
-            }
+            dashed_line(&mut chart, self.threshold, x_range, (0.25, 0.4), RGBColor(204, 0, 0).stroke_width(2))?;
             // The legend sits top left, above the lowest (leftmost) participants.
             chart
                 .draw_series([Text::new(

@@ -90,15 +90,15 @@ struct Again {
 
 /// Runs `stats ceiling`.
 pub(super) fn run(args: &CeilingArgs) -> anyhow::Result<()> {
-    let finite = |name: &str, v: f64| {
+    let correlation = |name: &str, v: f64| {
         if (-1.0..=1.0).contains(&v) {
             Ok(())
         } else {
             Err(BadInput(format!("--{name} {v}: expected a Spearman correlation in [-1, 1]")))
         }
     };
-    finite("goal-mean", args.goal_mean)?;
-    finite("floor", args.floor)?;
+    correlation("goal-mean", args.goal_mean)?;
+    correlation("floor", args.floor)?;
     let mut ceilings = Vec::new();
     let progress = indicatif::ProgressBar::new(args.tables.len() as u64).with_style(
         indicatif::ProgressStyle::with_template("ceiling {bar:30} {pos}/{len} {msg}")
