@@ -135,6 +135,20 @@ fn the_ceiling_of_the_thesis_tables_and_the_forecasts_beside_it() {
         "9 stimuli, but analysis/reference/thesis-5.6.3-mono-sampling-2afc.csv has 5",
     );
     bad(&[sampling, "--goal-mean", "1.5"], "--goal-mean 1.5: expected a Spearman correlation in [-1, 1]");
+    // Forecast files that are not forecasts, or whose stimuli do not fit the table.
+    bad(&[sampling, "--forecast", sampling], "thesis-5.6.3-mono-sampling-2afc.csv: not JSON");
+    let other = dir.path().join("other.json");
+    std::fs::write(&other, r#"{"format": "blurlab-report/1"}"#).unwrap();
+    bad(&[sampling, "--forecast", other.to_str().unwrap()], "other.json: not a forecast");
+    let mut doubled: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(blurlab_e2e::repo_root().join(recorded)).unwrap()).unwrap();
+    doubled["stimuli"][1]["label"] = doubled["stimuli"][0]["label"].clone();
+    let doubled_path = dir.path().join("doubled.json");
+    std::fs::write(&doubled_path, serde_json::to_vec(&doubled).unwrap()).unwrap();
+    bad(&[interactions, "--forecast", doubled_path.to_str().unwrap()], "two of its stimuli are the same one");
+    doubled["stimuli"][1]["label"] = "T9-A9".into();
+    std::fs::write(&doubled_path, serde_json::to_vec(&doubled).unwrap()).unwrap();
+    bad(&[interactions, "--forecast", doubled_path.to_str().unwrap()], "stimulus `T9-A9` is not one of");
     bad(&[sampling, "--replications", "1"], "1 replications: expected 2 to 1000000");
     let no_judges = dir.path().join("no-judges.csv");
     std::fs::write(&no_judges, "# blurlab-votes/1\nstimulus,votes\nA,15\nB,5\n").unwrap();
