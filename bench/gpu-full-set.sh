@@ -12,42 +12,15 @@
 # GPU (the measurements before the cost sweep take under 8 minutes on one NVIDIA H200); with QUICK=1 it runs the quick preset instead
 # (about 4 minutes on lavapipe on 2 cores, Table 2.1 at 64x64, to check the script itself).
 #
-# The binary: $BLURLAB_BIN, else ./bin/blurlab (a stripped release build carried to a machine
-# without Rust), else `cargo build --release` here. The Vulkan loader: where `ldconfig -p`
-# has no libvulkan and .gl/*.deb exist (downloaded as ../shared/ENVIRONMENT.md and the device
-# notes say), they are unpacked first. Results also go to $OUT (or ./results/gpu-full-set).
+# The binary and the Vulkan loader: as bench/lib/device-prelude.sh says. Results also go to
+# $OUT (or ./results/gpu-full-set).
 #
 # Usage: bench/gpu-full-set.sh            (from the repository root)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-log() { echo "gpu-full-set: $*" >&2; }
-
-if ! ldconfig -p 2>/dev/null | grep -q libvulkan.so && compgen -G ".gl/*.deb" >/dev/null; then
-  log "unpacking the Vulkan loader from .gl/"
-  for f in .gl/*.deb; do dpkg -x "$f" /; done
-  ldconfig
-fi
-nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-if [ -z "${VK_DRIVER_FILES:-}" ] && [ -f "$nvidia_icd" ]; then
-  export VK_DRIVER_FILES="$nvidia_icd"
-fi
-
-bin="${BLURLAB_BIN:-}"
-if [ -z "$bin" ]; then
-  if [ -x bin/blurlab ]; then
-    bin=bin/blurlab
-  else
-    log "building the release binary"
-    cargo build --release --quiet -p blurlab
-    bin=target/release/blurlab
-  fi
-fi
-
-out="${OUT:-results/gpu-full-set}"
-mkdir -p "$out"
-work="$(mktemp -d)"
-trap 'rm -rf "$work"' EXIT
+script=gpu-full-set
+. bench/lib/device-prelude.sh
 
 if [ "${QUICK:-0}" = 1 ]; then
   preset=quick; spp=8; cpu_spp=2; rounds=1
@@ -57,8 +30,6 @@ else
   preset=full; spp=256; cpu_spp=8; rounds=3
   media_args=(--rounds "$((rounds * 10))")
 fi
-
-now() { date +%s.%N; }
 
 log "benchmark ($bin, spp $spp)"
 "$bin" bench tracer --device gpu --json --spp "$spp" --cpu-spp "$cpu_spp" --rounds "$rounds" >"$out/bench.json"
@@ -76,8 +47,6 @@ log "analytic rasterizer (bench analytic --gpu: 640x360, 8 intervals, 1 and 4 li
 
 log "participating media (bench media: Table 2.1 at 512x512 (64x64 with QUICK=1), 16 lights, both data shapes; GPU only, the CPU twin is timed on lavapipe runs)"
 "$bin" bench media --device gpu --json --cpu false "${media_args[@]}" >"$out/media.json"
-
-calc() { awk "BEGIN { printf \"%.3f\", $1 }"; }
 
 # The slice is one of the design's 45 (material, speed, shutter) cells with all its levels
 # and views; M3-S3-T5 is the most expensive cell, so 45 x the slice bounds the full set.
