@@ -3,7 +3,8 @@
 # each of the thesis's five tests when the GPU renders the references and ColorVideoVDP runs
 # on two CPU cores, the issue's "one thesis test from rendered clips in under 10 minutes on
 # 2 cores" (on the 2-core VM without a GPU, the tests needing one reference per shutter took
-# 721-1966 s, all of it rendering the references: BENCHMARKS.md, "Speed and memory").
+# 721-1522 s of computing, nearly all of it rendering the references: BENCHMARKS.md, "Speed
+# and memory").
 #
 # For each test: the GPU renders its clips (the design's `clip` preset: 640x360 per eye,
 # frames 45-74, 4-512 samples per pixel) into a fresh set, timed apart, since the item times
@@ -46,7 +47,11 @@ cores="${CORES:-0,1}"
 export RAYON_NUM_THREADS="${RAYON_NUM_THREADS:-2}"
 pin=()
 if command -v taskset >/dev/null && [ "$(nproc --all)" -gt 2 ]; then
-  pin=(taskset -c "$cores")
+  if taskset -c "$cores" true 2>/dev/null; then
+    pin=(taskset -c "$cores")
+  else
+    log "taskset -c $cores fails here: running unpinned, with RAYON_NUM_THREADS=$RAYON_NUM_THREADS alone"
+  fi
 fi
 log "binary $bin, preset $preset, pinned to ${pin[*]:-all cores (taskset missing or 2 cores)}, RAYON_NUM_THREADS=$RAYON_NUM_THREADS"
 

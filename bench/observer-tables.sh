@@ -35,6 +35,13 @@
 #                                                # prefer as they did at the medium speed
 #                                                # (5.7.2): stats ceiling with 21 and 5 judges,
 #                                                # into $OUT/preregistered/planning/
+#   bench/observer-tables.sh reference-spp [TABLE...]  # the frozen `shutter` forecast of the
+#                                                # mono tables (TABLE: 5.6.3 5.7.2, default
+#                                                # both) with references of $SPPS samples per
+#                                                # pixel (default 2048 4096; the frozen one,
+#                                                # 1024, is $OUT/TABLE-shutter), into
+#                                                # $OUT/reference-spp/; FLIP again beside them,
+#                                                # to check the clips are the committed ones
 #   bench/observer-tables.sh ceiling             # what a perfect forecast of the five tables
 #                                                # reaches against their own noise (`blurlab
 #                                                # stats ceiling`), beside the frozen observer,
@@ -155,6 +162,22 @@ PY
         --judging pair
     done
     ;;
+  reference-spp)
+    # A sensitivity check, not a new forecast: the references' samples are a setting, and
+    # settings are the mono tables' to choose (the stereo tables stay as frozen).
+    shift
+    for table in ${*:-5.6.3 5.7.2}; do
+      case $table in
+        5.6.3) render mono "M3 S2 T3 *"; args=(mono-2-sampling-2afc thesis-5.6.3-mono-sampling-2afc) ;;
+        5.7.2) render mono "M2 S2 T3-T5 A3-A5"; args=(mono-3-interactions thesis-5.7.2-mono-interactions) ;;
+        *) echo "reference-spp: unknown table $table (5.6.3 or 5.7.2)" >&2; exit 2 ;;
+      esac
+      predict "${args[@]}" "reference-spp/$table-flip" --observer flip
+      for spp in ${SPPS:-2048 4096}; do
+        predict "${args[@]}" "reference-spp/$table-shutter-$spp" --reference shutter --reference-spp "$spp"
+      done
+    done
+    ;;
   plan)
     dir=$OUT/preregistered/mono-3-interactions-fast
     forecasts=()
@@ -188,7 +211,7 @@ PY
     "$0" stereo "$ref"
     ;;
   *)
-    sed -n '2,48p' "$0"
+    sed -n '2,55p' "$0"
     exit 2
     ;;
 esac
