@@ -36,6 +36,7 @@ cd "$(dirname "$0")/.."
 
 script=gpu-observer
 . bench/lib/device-prelude.sh
+. bench/lib/thesis-tables.sh
 set_dir="$work/set"
 steps="$out/observer-gpu-steps.jsonl"
 logfile="$out/observer-gpu.log"
@@ -84,14 +85,15 @@ render_clips() { # VIEWS ONLY
     --resume --out "$set_dir"
 }
 
-forecast() { # NAME TABLE EXPERIMENT TABLE-CSV VIEWS ONLY REFERENCE
-  local name=$1 table=$2 experiment=$3 csv=$4 views=$5 only=$6 reference=$7
-  local clips_s dir=$work/forecasts/$name committed
-  render_clips "$views" "$only"
+forecast() { # TABLE REFERENCE [NAME]
+  local table=$1 reference=$2 name=${3:-$1-$2} clips_s committed
+  local dir=$work/forecasts/$name
+  thesis_table "$table"
+  render_clips "$table_views" "$table_only"
   clips_s=$seconds
   echo "== predict $name" >>"$logfile"
-  measure "$bin" predict "experiments/$experiment.toml" --stimuli "$set_dir" --reference "$reference" \
-    --votes "analysis/reference/$csv.csv" --device gpu --out "$dir"
+  measure "$bin" predict "experiments/$table_experiment.toml" --stimuli "$set_dir" --reference "$reference" \
+    --votes "analysis/reference/$table_votes.csv" --device gpu --out "$dir"
   committed=null
   if [ "$preset" = clip ]; then committed=$(spearman "analysis/observer/$table-$reference/predict.json"); fi
   local line="{\"step\": \"$name\", \"clips_seconds\": $clips_s, \"predict_seconds\": $seconds, \"predict_peak_mb\": $peak_mb, \"spearman\": $(spearman "$dir/predict.json"), \"spearman_committed_cpu\": $committed}"
@@ -99,15 +101,13 @@ forecast() { # NAME TABLE EXPERIMENT TABLE-CSV VIEWS ONLY REFERENCE
   echo "$line" >>"$steps"
 }
 
-forecast 5.6.3-shutter 5.6.3 mono-2-sampling-2afc thesis-5.6.3-mono-sampling-2afc mono "M3 S2 T3 *" shutter
-forecast 5.7.2-shutter 5.7.2 mono-3-interactions thesis-5.7.2-mono-interactions mono "M2 S2 T3-T5 A3-A5" shutter
-forecast 6.5.2-sampling-shutter 6.5.2-sampling stereo-2-sampling thesis-6.5.2-stereo-sampling stereo "M3 S2 T3 *" shutter
-forecast 6.5.2-shutter-shutter 6.5.2-shutter stereo-2-shutter thesis-6.5.2-stereo-shutter stereo "M3 S2 * A5" shutter
-forecast 6.6.2-shutter 6.6.2 stereo-3-interactions thesis-6.6.2-stereo-interactions stereo "M2 S2 T3-T5 A3-A5" shutter
+for table in $thesis_tables; do
+  forecast "$table" shutter
+done
 # The same forecast again: its references and scores are cached in the set.
-forecast 5.7.2-shutter-cached 5.7.2 mono-3-interactions thesis-5.7.2-mono-interactions mono "M2 S2 T3-T5 A3-A5" shutter
+forecast 5.7.2 shutter 5.7.2-shutter-cached
 # Last, the heaviest: 120 reference frames per material and speed, and the metric on all of them.
-forecast 5.7.2-eye 5.7.2 mono-3-interactions thesis-5.7.2-mono-interactions mono "M2 S2 T3-T5 A3-A5" eye
+forecast 5.7.2 eye
 
 gpu=$(command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name --format=csv,noheader | head -1 || echo unknown)
 {

@@ -60,6 +60,7 @@ SET=${SET:-stimuli/out/clip}
 OUT=${OUT:-analysis/observer}
 DEVICE=${DEVICE:-auto}
 [ -x "$BIN" ] || cargo build --release -p blurlab
+. bench/lib/thesis-tables.sh
 render() { # VIEWS ONLY
   "$BIN" stimuli render --preset clip --views "$1" --only "$2" --device "$DEVICE" --resume --out "$SET"
 }
@@ -145,16 +146,10 @@ PY
     # Not a held-out test: the model was thought of after all five tables had been seen
     # (BENCHMARKS.md, "Post hoc: eye movements"). Results go to $OUT/explore/.
     shift
-    tables=${*:-5.6.3 5.7.2 6.5.2-sampling 6.5.2-shutter 6.6.2}
-    for table in $tables; do
-      case $table in
-        5.6.3) render mono "M3 S2 T3 *"; args=(mono-2-sampling-2afc thesis-5.6.3-mono-sampling-2afc) ;;
-        5.7.2) render mono "M2 S2 T3-T5 A3-A5"; args=(mono-3-interactions thesis-5.7.2-mono-interactions) ;;
-        6.5.2-sampling) render stereo "M3 S2 T3 *"; args=(stereo-2-sampling thesis-6.5.2-stereo-sampling) ;;
-        6.5.2-shutter) render stereo "M3 S2 * A5"; args=(stereo-2-shutter thesis-6.5.2-stereo-shutter) ;;
-        6.6.2) render stereo "M2 S2 T3-T5 A3-A5"; args=(stereo-3-interactions thesis-6.6.2-stereo-interactions) ;;
-        *) echo "explore: unknown table $table" >&2; exit 2 ;;
-      esac
+    for table in ${*:-$thesis_tables}; do
+      thesis_table "$table" || exit 2
+      render "$table_views" "$table_only"
+      args=("$table_experiment" "$table_votes")
       for eyes in fixation pursuit both; do
         predict "${args[@]}" "explore/$table-sharp-$eyes" --reference sharp --eye-movement "$eyes"
       done
@@ -167,11 +162,13 @@ PY
     # settings are the mono tables' to choose (the stereo tables stay as frozen).
     shift
     for table in ${*:-5.6.3 5.7.2}; do
-      case $table in
-        5.6.3) render mono "M3 S2 T3 *"; args=(mono-2-sampling-2afc thesis-5.6.3-mono-sampling-2afc) ;;
-        5.7.2) render mono "M2 S2 T3-T5 A3-A5"; args=(mono-3-interactions thesis-5.7.2-mono-interactions) ;;
-        *) echo "reference-spp: unknown table $table (5.6.3 or 5.7.2)" >&2; exit 2 ;;
-      esac
+      thesis_table "$table" || exit 2
+      if [ "$table_views" != mono ]; then
+        echo "reference-spp: $table is a stereo table, held out (5.6.3 or 5.7.2)" >&2
+        exit 2
+      fi
+      render "$table_views" "$table_only"
+      args=("$table_experiment" "$table_votes")
       predict "${args[@]}" "reference-spp/$table-flip" --observer flip
       for spp in ${SPPS:-2048 4096}; do
         predict "${args[@]}" "reference-spp/$table-shutter-$spp" --reference shutter --reference-spp "$spp"
@@ -211,7 +208,7 @@ PY
     "$0" stereo "$ref"
     ;;
   *)
-    sed -n '2,55p' "$0"
+    sed -n '2,/^set -euo/{/^#/p}' "$0"
     exit 2
     ;;
 esac
