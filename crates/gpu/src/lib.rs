@@ -18,6 +18,8 @@
 //!   binary and listed in [`INCLUDES`]) resolved from `//! include NAME` lines, plus typed
 //!   constants emitted as `const` declarations with exact literals; [`validate_wgsl`] checks
 //!   the result with naga on the CPU.
+//! - [`storage_entry`] and [`uniform_entry`]: the bind-group layout entries every compute
+//!   kernel's buffers use.
 //! - [`GpuContext::run_kernel`]: a one-shot compute kernel over an input and an output
 //!   storage buffer, read back (the shape of every twin test).
 //! - The one rule for GPU tests: [`test_context`] returns a device or, without one, prints
@@ -30,6 +32,7 @@
 mod device;
 mod error;
 mod kernel;
+mod layout;
 mod readback;
 mod testing;
 mod timer;
@@ -37,6 +40,7 @@ mod wgsl;
 
 pub use device::{AdapterChoice, DeviceRequest, GpuContext, GpuInfo, TIMESTAMP_FEATURES, acquire, adapter_infos};
 pub use error::GpuError;
+pub use layout::{storage_entry, uniform_entry};
 pub use readback::{read_buffer, read_buffer_as, read_texture};
 pub use testing::{REQUIRE_GPU_ENV, require_gpu, skip_or_fail, test_context, test_context_with};
 pub use timer::{GpuTimer, GpuTiming, TimingSource};

@@ -124,36 +124,17 @@ impl GpuMarcher {
             source: wgpu::ShaderSource::Wgsl(MARCH_WGSL.into()),
         });
         // one layout for both entry points, so one bind group serves both passes
-        let storage = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("march"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage(1, true),
-                storage(2, true),
-                storage(3, true),
-                storage(4, false),
-                storage(5, false),
-                storage(6, true),
-                storage(7, false),
+                gpu::uniform_entry(0),
+                gpu::storage_entry(1, true),
+                gpu::storage_entry(2, true),
+                gpu::storage_entry(3, true),
+                gpu::storage_entry(4, false),
+                gpu::storage_entry(5, false),
+                gpu::storage_entry(6, true),
+                gpu::storage_entry(7, false),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

@@ -112,27 +112,19 @@ impl GpuAnalytic {
             label: Some("analytic_pixel.wgsl"),
             source: wgpu::ShaderSource::Wgsl(source.into()),
         });
-        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
-            count: None,
-        };
-        let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let write = wgpu::BufferBindingType::Storage { read_only: false };
         // Explicit, so the coverage specialisation (which reads no environment) binds the same.
         let layout = ctx.device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("analytic"),
             entries: &[
-                entry(0, read),
-                entry(1, read),
-                entry(4, wgpu::BufferBindingType::Uniform),
-                entry(5, read),
-                entry(6, read),
-                entry(7, write),
-                entry(8, write),
-                entry(10, write),
-                entry(11, write),
+                gpu::storage_entry(0, true),
+                gpu::storage_entry(1, true),
+                gpu::uniform_entry(4),
+                gpu::storage_entry(5, true),
+                gpu::storage_entry(6, true),
+                gpu::storage_entry(7, false),
+                gpu::storage_entry(8, false),
+                gpu::storage_entry(10, false),
+                gpu::storage_entry(11, false),
             ],
         });
         let pipeline_layout = ctx.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {

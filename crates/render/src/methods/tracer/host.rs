@@ -150,19 +150,6 @@ pub fn kernel_source() -> Result<String, GpuError> {
     crate::shading::gpu::assembler::assembler().assemble("trace_batch.wgsl", include_str!("trace_batch.wgsl"))
 }
 
-fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 impl GpuTracer {
     /// Compiles the kernel for `ctx`'s device.
     pub fn new(ctx: GpuContext) -> Result<Self, GpuError> {
@@ -176,19 +163,10 @@ impl GpuTracer {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("tracer"),
             entries: &[
-                storage_entry(0, true),
-                storage_entry(1, true),
-                storage_entry(2, false),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 3,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
+                gpu::storage_entry(0, true),
+                gpu::storage_entry(1, true),
+                gpu::storage_entry(2, false),
+                gpu::uniform_entry(3),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
