@@ -9,7 +9,9 @@
 mod common;
 
 use common::agreement::{H, W, assert_noise_apart, checker, design, hard_cases, study_scene};
-use common::{L, assert_coverage_matches, coverage_scene, furnace_scene, scene, study_camera, uniform};
+use common::{
+    assert_coverage_matches, assert_white_furnace, coverage_scene, furnace_scene, scene, study_camera, uniform,
+};
 use glam::DVec3;
 use render::env::EnvironmentMap;
 use render::methods::tracer::trace_batch;
@@ -157,11 +159,7 @@ fn white_furnace() {
     let env = EnvironmentMap::from_lighting(&s.lighting).unwrap();
     let out = wide::render_frame(&s, &EnvTables::new(&env)).unwrap();
     assert_eq!(out.nonfinite_samples, 0);
-    let values: Vec<f64> = out.eyes[0].pixels.iter().map(|p| f64::from(p[0])).collect();
-    let summary = study::stats::Summary::of(&values);
-    let se = summary.standard_error();
-    assert!(se > 0.0 && se < 0.01, "se {se}");
-    assert!((summary.mean - L).abs() < 3.0 * se + 1e-5, "mean {} vs {L}, se {se}", summary.mean);
+    assert_white_furnace(&out.eyes[0]);
 }
 
 #[test]

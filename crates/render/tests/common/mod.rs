@@ -93,6 +93,17 @@ pub fn furnace_scene() -> FrameScene {
     s
 }
 
+/// Checks a render of [`furnace_scene`]: the mean of its first channel over every pixel is
+/// `L` within 3 standard errors (plus 1e-5), the standard error positive (the frame is a
+/// Monte Carlo estimate, not a constant) and under 0.01.
+pub fn assert_white_furnace(img: &render::io::LinearImage) {
+    let values: Vec<f64> = img.pixels.iter().map(|p| f64::from(p[0])).collect();
+    let summary = study::stats::Summary::of(&values);
+    let se = summary.standard_error();
+    assert!(se > 0.0 && se < 0.01, "se {se}");
+    assert!((summary.mean - L).abs() < 3.0 * se + 1e-5, "mean {} vs {L}, se {se}", summary.mean);
+}
+
 /// Checks row 1 of a render of `coverage_scene(.., spp)` against [`exact_coverage`]
 /// pixel by pixel: within 3 binomial standard errors of a coverage estimate from `spp`
 /// stratified samples (at most `sqrt(c (1 - c) / spp)`) plus 0.01, and with at least 16
