@@ -21,13 +21,14 @@ pub use posterior::{Comparison, JOD_PER_UNIT, Posterior};
 
 use rand::Rng;
 
-/// A uniform draw in `[0, 1)` with 53 random bits.
-pub(crate) fn unit_f64(rng: &mut impl Rng) -> f64 {
+/// A uniform draw in `[0, 1)` with 53 random bits (public so that simulations of a selection
+/// draw as it does).
+pub fn unit_f64(rng: &mut impl Rng) -> f64 {
     (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
 
 /// A uniform index below `n` (`n > 0`), by rejection so that every index is equally likely.
-pub(crate) fn index_below(rng: &mut impl Rng, n: usize) -> usize {
+pub fn index_below(rng: &mut impl Rng, n: usize) -> usize {
     let n = n as u64;
     let zone = u64::MAX - u64::MAX % n;
     loop {

@@ -38,10 +38,12 @@ use analysis::plots::{Figure, group_colour, save_figure};
 use analysis::scaling::{ScaleOptions, fit_case_v};
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use selection::posterior::normal_cdf;
-use selection::{Comparison, Evaluation, JOD_PER_UNIT, PairGain, Posterior, REFINED_PAIRS, Search};
+use selection::{
+    Comparison, Evaluation, JOD_PER_UNIT, PairGain, Posterior, REFINED_PAIRS, Search, index_below, unit_f64,
+};
 use serde_json::json;
 
 use crate::cmd::BadInput;
@@ -240,26 +242,11 @@ fn seed_for(base: u64, stimuli: usize, repetition: usize, method: Option<Method>
 
 const SEED_RULE: &str = "base * 1000003 + stimuli * 100000 + repetition * 10 + m, m = 0 for the true scores, 1 complete, 2 random, 3 asap-sequential, 4 asap-batch (PCG64 seed_from_u64)";
 
-fn unit(rng: &mut Pcg64) -> f64 {
-    (rng.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-}
-
 /// A standard normal draw (Box-Muller).
 fn normal(rng: &mut Pcg64) -> f64 {
-    let u = 1.0 - unit(rng);
-    let v = unit(rng);
+    let u = 1.0 - unit_f64(rng);
+    let v = unit_f64(rng);
     (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
-}
-
-fn index_below(rng: &mut Pcg64, n: usize) -> usize {
-    let n = n as u64;
-    let zone = u64::MAX - u64::MAX % n;
-    loop {
-        let x = rng.next_u64();
-        if x < zone {
-            return (x % n) as usize;
-        }
-    }
 }
 
 /// True scores (JOD) of one repetition, centred to mean 0.
@@ -276,7 +263,7 @@ fn centred(s: &[f64]) -> Vec<f64> {
 
 /// The simulated observer's answer to `(i, j)`.
 fn answer(truth: &[f64], i: usize, j: usize, rng: &mut Pcg64) -> Comparison {
-    if unit(rng) < normal_cdf((truth[i] - truth[j]) / JOD_PER_UNIT) {
+    if unit_f64(rng) < normal_cdf((truth[i] - truth[j]) / JOD_PER_UNIT) {
         Comparison { winner: i, loser: j }
     } else {
         Comparison { winner: j, loser: i }
